@@ -1,0 +1,161 @@
+//! LW: the local-write cache (paper §3.2, Listing 5).
+//!
+//! A global octree that nobody writes during a frame, plus one local octree per worker. A worker
+//! reads both and writes only its own; at the frame barrier [`IrradianceCache::end_frame`] merges
+//! every local octree into the global one, one after another, and times it.
+//!
+//! The "no write to the global cache during a frame" rule is the borrow checker's: handles borrow
+//! the cache shared (`&self`), the global octree is only reachable through that shared borrow, and
+//! merging needs `&mut self`, which cannot coexist with a live handle:
+//!
+//! ```compile_fail
+//! use wfic::cache::{CacheConfig, CacheHandle, IrradianceCache, LocalWrite};
+//! use wfic::ic::WorkerId;
+//! use glam::Vec3;
+//! let mut lw = LocalWrite::new(CacheConfig::new(Vec3::ZERO, Vec3::ONE, 0.3).unwrap());
+//! let handle = lw.handle(WorkerId::new(0));
+//! lw.end_frame(Vec::new()); // error: `lw` is borrowed by `handle`
+//! handle.finish();
+//! ```
+//!
+//! Deviations from Listing 5 (see `paper-notes.md`): the listing consults the local cache only when
+//! the global one *found* something (`if (inIC)`, a slip for `if (!inIC)`); and even corrected it
+//! would answer from one of the two caches. Here one lookup averages the valid records of both,
+//! which is exactly what a single merged cache would answer.
+
+use super::{
+    collect_valid, CacheConfig, CacheHandle, CacheStats, FrameReport, HandleCore, Inserted,
+    IrradianceCache, Octree, WorkerStats,
+};
+use crate::ic::{InsertError, Interpolated, Record, WorkerId};
+use glam::Vec3;
+use std::time::Instant;
+
+/// LW: a global octree read-only during a frame, and local octrees merged at its end.
+#[derive(Debug)]
+pub struct LocalWrite {
+    global: Octree,
+    stats: CacheStats,
+}
+
+impl LocalWrite {
+    /// An empty cache.
+    pub fn new(config: CacheConfig) -> Self {
+        Self {
+            global: Octree::new(config),
+            stats: CacheStats::default(),
+        }
+    }
+}
+
+/// An LW worker: the shared global octree and the worker's own local one.
+#[derive(Debug)]
+pub struct LwHandle<'c> {
+    global: &'c Octree,
+    local: Octree,
+    core: HandleCore,
+}
+
+/// What an LW worker hands to the merge.
+#[derive(Debug)]
+pub struct LwResidue {
+    local: Octree,
+    stats: WorkerStats,
+}
+
+impl IrradianceCache for LocalWrite {
+    type Handle<'c> = LwHandle<'c>;
+    type Residue = LwResidue;
+
+    fn scheme(&self) -> &'static str {
+        "lw"
+    }
+
+    fn config(&self) -> &CacheConfig {
+        self.global.config()
+    }
+
+    fn handle(&self, worker: WorkerId) -> LwHandle<'_> {
+        LwHandle {
+            global: &self.global,
+            local: Octree::new(*self.global.config()),
+            core: HandleCore::new(worker),
+        }
+    }
+
+    fn end_frame(&mut self, residues: Vec<LwResidue>) -> FrameReport {
+        let mut report = FrameReport::default();
+        let start = Instant::now();
+        for residue in &residues {
+            for record in residue.local.records() {
+                // Admitted by the handle already: same bounds, validated and sealed.
+                self.global.insert_admitted(*record);
+            }
+        }
+        report.merge = start.elapsed();
+        residues.iter().for_each(|r| report.workers += &r.stats);
+        self.stats.totals += &report.workers;
+        self.stats.merge += report.merge;
+        self.stats.frames += 1;
+        report
+    }
+
+    fn snapshot(&mut self) -> Vec<Record> {
+        self.global.records().copied().collect()
+    }
+
+    fn stats(&mut self) -> CacheStats {
+        CacheStats {
+            records: self.global.len(),
+            nodes: self.global.node_count(),
+            ..self.stats
+        }
+    }
+}
+
+impl CacheHandle for LwHandle<'_> {
+    type Residue = LwResidue;
+
+    fn worker(&self) -> WorkerId {
+        self.core.worker
+    }
+
+    #[inline]
+    fn lookup(&mut self, point: Vec3, normal: Vec3) -> Option<Interpolated> {
+        let mut acc = self
+            .core
+            .begin_lookup(self.global.config(), point, normal)?;
+        let mut add = |r: &Record| {
+            acc.add(r);
+        };
+        let mut nodes = self.global.visit(point, &mut add);
+        if !self.local.is_empty() {
+            nodes += self.local.visit(point, &mut add);
+        }
+        self.core.end_lookup(&acc, nodes)
+    }
+
+    fn insert(&mut self, record: Record) -> Result<Inserted, InsertError> {
+        let record = self.core.admit(self.global.config(), record)?;
+        let steps = self.local.insert_admitted(record);
+        Ok(self.core.inserted(Inserted::Stored(record.id()), steps))
+    }
+
+    fn valid_records(&mut self, point: Vec3, normal: Vec3, out: &mut Vec<Record>) {
+        let (global, local) = (self.global, &self.local);
+        collect_valid(global.config(), point, normal, out, |p, f| {
+            global.visit(p, &mut |r| f(r)) + local.visit(p, &mut |r| f(r))
+        });
+    }
+
+    fn stats(&self) -> &WorkerStats {
+        &self.core.stats
+    }
+
+    fn finish(self) -> LwResidue {
+        LwResidue {
+            local: self.local,
+            stats: self.core.stats,
+        }
+    }
+}

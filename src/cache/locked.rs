@@ -1,0 +1,255 @@
+//! LCK: the lock-based shared cache (paper §3.1, Listing 4).
+//!
+//! The sequential [`Octree`] behind one lock, taken separately for each lookup and each insert, so
+//! hemisphere sampling between them runs in parallel. Two flavours: a `Mutex` (the paper) and an
+//! `RwLock` (readers in parallel, as pbrt-v2's irradiance cache did). Every acquisition first tries
+//! the lock; only when that fails is the wait timed, so an uncontended acquisition costs no clock
+//! reads. The time spent waiting is summed over workers (the paper's LCK overhead in Table 1).
+
+use super::{
+    collect_valid, CacheConfig, CacheHandle, CacheStats, FrameReport, HandleCore, Inserted,
+    IrradianceCache, Octree, WorkerStats,
+};
+use crate::ic::{InsertError, Interpolated, Record, WorkerId};
+use crate::sync::{
+    try_unpoison, unpoison, Mutex, MutexGuard, RwLock, RwLockReadGuard, RwLockWriteGuard,
+};
+use glam::Vec3;
+use std::ops::{Deref, DerefMut};
+use std::time::{Duration, Instant};
+
+mod sealed {
+    pub trait Sealed {}
+}
+
+/// The lock LCK puts around its octree.
+pub trait LockFlavour: sealed::Sealed + Send + Sync {
+    /// Guard for a lookup.
+    type Read<'a>: Deref<Target = Octree>
+    where
+        Self: 'a;
+    /// Guard for an insert.
+    type Write<'a>: DerefMut<Target = Octree>
+    where
+        Self: 'a;
+    /// The scheme name.
+    const NAME: &'static str;
+    /// Wraps `tree`.
+    fn new(tree: Octree) -> Self;
+    /// Takes the lock for reading if it is free now.
+    fn try_read(&self) -> Option<Self::Read<'_>>;
+    /// Takes the lock for reading, waiting as long as needed.
+    fn read(&self) -> Self::Read<'_>;
+    /// Takes the lock for writing if it is free now.
+    fn try_write(&self) -> Option<Self::Write<'_>>;
+    /// Takes the lock for writing, waiting as long as needed.
+    fn write(&self) -> Self::Write<'_>;
+    /// The octree, when nobody else can hold the lock.
+    fn get_mut(&mut self) -> &mut Octree;
+}
+
+/// One `Mutex` for lookups and inserts alike (Listing 4).
+#[derive(Debug)]
+pub struct MutexFlavour(Mutex<Octree>);
+
+/// An `RwLock`: lookups share it, inserts take it alone.
+#[derive(Debug)]
+pub struct RwLockFlavour(RwLock<Octree>);
+
+impl sealed::Sealed for MutexFlavour {}
+impl sealed::Sealed for RwLockFlavour {}
+
+// Poisoning: a worker that panics while holding the lock leaves the octree whole (a record is
+// pushed in one step), so every acquisition recovers a poisoned guard and goes on.
+impl LockFlavour for MutexFlavour {
+    type Read<'a> = MutexGuard<'a, Octree>;
+    type Write<'a> = MutexGuard<'a, Octree>;
+    const NAME: &'static str = "lck";
+    fn new(tree: Octree) -> Self {
+        Self(Mutex::new(tree))
+    }
+    fn try_read(&self) -> Option<Self::Read<'_>> {
+        try_unpoison(self.0.try_lock())
+    }
+    fn read(&self) -> Self::Read<'_> {
+        unpoison(self.0.lock())
+    }
+    fn try_write(&self) -> Option<Self::Write<'_>> {
+        try_unpoison(self.0.try_lock())
+    }
+    fn write(&self) -> Self::Write<'_> {
+        unpoison(self.0.lock())
+    }
+    fn get_mut(&mut self) -> &mut Octree {
+        unpoison(self.0.get_mut())
+    }
+}
+
+impl LockFlavour for RwLockFlavour {
+    type Read<'a> = RwLockReadGuard<'a, Octree>;
+    type Write<'a> = RwLockWriteGuard<'a, Octree>;
+    const NAME: &'static str = "lck-rw";
+    fn new(tree: Octree) -> Self {
+        Self(RwLock::new(tree))
+    }
+    fn try_read(&self) -> Option<Self::Read<'_>> {
+        try_unpoison(self.0.try_read())
+    }
+    fn read(&self) -> Self::Read<'_> {
+        unpoison(self.0.read())
+    }
+    fn try_write(&self) -> Option<Self::Write<'_>> {
+        try_unpoison(self.0.try_write())
+    }
+    fn write(&self) -> Self::Write<'_> {
+        unpoison(self.0.write())
+    }
+    fn get_mut(&mut self) -> &mut Octree {
+        unpoison(self.0.get_mut())
+    }
+}
+
+/// Takes a lock through `try_`, or, if it is busy, through `block`, adding the wait to `wait`.
+#[inline]
+fn acquire<G>(
+    wait: &mut Duration,
+    try_: impl FnOnce() -> Option<G>,
+    block: impl FnOnce() -> G,
+) -> G {
+    if let Some(guard) = try_() {
+        return guard;
+    }
+    contended(wait, block)
+}
+
+#[cold]
+fn contended<G>(wait: &mut Duration, block: impl FnOnce() -> G) -> G {
+    let start = Instant::now();
+    let guard = block();
+    *wait += start.elapsed();
+    guard
+}
+
+/// LCK: the octree behind a lock of flavour `F`.
+#[derive(Debug)]
+pub struct Locked<F: LockFlavour = MutexFlavour> {
+    config: CacheConfig,
+    tree: F,
+    stats: CacheStats,
+}
+
+impl<F: LockFlavour> Locked<F> {
+    /// An empty cache.
+    pub fn new(config: CacheConfig) -> Self {
+        Self {
+            config,
+            tree: F::new(Octree::new(config)),
+            stats: CacheStats::default(),
+        }
+    }
+}
+
+/// An LCK worker.
+#[derive(Debug)]
+pub struct LckHandle<'c, F: LockFlavour> {
+    cache: &'c Locked<F>,
+    core: HandleCore,
+}
+
+impl<F: LockFlavour> IrradianceCache for Locked<F> {
+    type Handle<'c>
+        = LckHandle<'c, F>
+    where
+        F: 'c;
+    type Residue = WorkerStats;
+
+    fn scheme(&self) -> &'static str {
+        F::NAME
+    }
+
+    fn config(&self) -> &CacheConfig {
+        &self.config
+    }
+
+    fn handle(&self, worker: WorkerId) -> LckHandle<'_, F> {
+        LckHandle {
+            cache: self,
+            core: HandleCore::new(worker),
+        }
+    }
+
+    fn end_frame(&mut self, residues: Vec<WorkerStats>) -> FrameReport {
+        let mut report = FrameReport::default();
+        residues.iter().for_each(|s| report.workers += s);
+        self.stats.totals += &report.workers;
+        self.stats.frames += 1;
+        report
+    }
+
+    fn snapshot(&mut self) -> Vec<Record> {
+        self.tree.get_mut().records().copied().collect()
+    }
+
+    fn stats(&mut self) -> CacheStats {
+        let tree = self.tree.get_mut();
+        CacheStats {
+            records: tree.len(),
+            nodes: tree.node_count(),
+            ..self.stats
+        }
+    }
+}
+
+impl<F: LockFlavour> CacheHandle for LckHandle<'_, F> {
+    type Residue = WorkerStats;
+
+    fn worker(&self) -> WorkerId {
+        self.core.worker
+    }
+
+    #[inline]
+    fn lookup(&mut self, point: Vec3, normal: Vec3) -> Option<Interpolated> {
+        let mut acc = self.core.begin_lookup(&self.cache.config, point, normal)?;
+        let tree = &self.cache.tree;
+        let nodes = {
+            let guard = acquire(
+                &mut self.core.stats.lock_wait,
+                || tree.try_read(),
+                || tree.read(),
+            );
+            guard.visit(point, &mut |r| {
+                acc.add(r);
+            })
+        };
+        self.core.end_lookup(&acc, nodes)
+    }
+
+    fn insert(&mut self, record: Record) -> Result<Inserted, InsertError> {
+        let record = self.core.admit(&self.cache.config, record)?;
+        let tree = &self.cache.tree;
+        let steps = {
+            let mut guard = acquire(
+                &mut self.core.stats.lock_wait,
+                || tree.try_write(),
+                || tree.write(),
+            );
+            guard.insert_admitted(record)
+        };
+        Ok(self.core.inserted(Inserted::Stored(record.id()), steps))
+    }
+
+    fn valid_records(&mut self, point: Vec3, normal: Vec3, out: &mut Vec<Record>) {
+        let guard = self.cache.tree.read();
+        collect_valid(&self.cache.config, point, normal, out, |p, f| {
+            guard.visit(p, &mut |r| f(r))
+        });
+    }
+
+    fn stats(&self) -> &WorkerStats {
+        &self.core.stats
+    }
+
+    fn finish(self) -> WorkerStats {
+        self.core.stats
+    }
+}

@@ -1,0 +1,364 @@
+//! The shared irradiance caches: one trait, four access schemes (paper §3).
+//!
+//! | scheme | type | paper |
+//! |---|---|---|
+//! | TRA | [`Sequential`] | Listing 3 |
+//! | LCK | [`Locked`] (`Mutex` or `RwLock`) | Listing 4 |
+//! | LW  | [`LocalWrite`] | Listing 5 |
+//! | WF  | [`WaitFree`] (`Adopt` or `Discard`) | Listing 6, with the fixes in `paper-notes.md` |
+//!
+//! A cache is shared by reference between the workers of a frame; each worker asks it for a
+//! [`CacheHandle`], which carries the worker's own state (counters, LW's local cache) so nothing on
+//! the hot path writes shared memory but the cache itself. After the workers join, the frame is
+//! closed with [`IrradianceCache::end_frame`], which takes `&mut self`: LW merges there, and the
+//! borrow checker rules out a handle that outlives the frame.
+
+mod local_write;
+mod locked;
+pub mod octree;
+mod oracle;
+mod sequential;
+pub mod wf;
+
+pub use local_write::{LocalWrite, LwHandle};
+pub use locked::{LckHandle, Locked, MutexFlavour, RwLockFlavour};
+pub use oracle::BruteForce;
+pub use sequential::{Octree, SeqHandle, Sequential};
+pub use wf::{CasFailure, WaitFree, WfHandle};
+
+use crate::ic::{self, Accumulator, InsertError, Interpolated, Record, RecordId, WorkerId};
+use glam::Vec3;
+use octree::{Cell, Geometry};
+use std::fmt;
+use std::ops::AddAssign;
+use std::time::Duration;
+
+/// Where a cache lives and how accurate it is.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CacheConfig {
+    geometry: Geometry,
+}
+
+/// Why a [`CacheConfig`] was refused.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum ConfigError {
+    /// The accuracy is not in `(0, 2]`.
+    Accuracy(f32),
+    /// The bounds are empty, inverted or not finite.
+    Bounds {
+        /// Lower corner given.
+        min: Vec3,
+        /// Upper corner given.
+        max: Vec3,
+    },
+}
+
+impl fmt::Display for ConfigError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::Accuracy(a) => write!(f, "accuracy {a} is not in (0, 2]"),
+            Self::Bounds { min, max } => {
+                write!(f, "cache bounds {min}..{max} are empty or not finite")
+            }
+        }
+    }
+}
+
+impl std::error::Error for ConfigError {}
+
+impl CacheConfig {
+    /// A cache covering the box `min..max` (the root is the smallest cube around it, enlarged by
+    /// 1%), answering at accuracy `a` (Ward's `a`, typically 0.1 to 0.5).
+    pub fn new(min: Vec3, max: Vec3, accuracy: f32) -> Result<Self, ConfigError> {
+        if !(accuracy > 0.0 && accuracy <= 2.0) {
+            return Err(ConfigError::Accuracy(accuracy));
+        }
+        let size = max - min;
+        if !min.is_finite()
+            || !max.is_finite()
+            || size.min_element() < 0.0
+            || size.max_element() <= 0.0
+        {
+            return Err(ConfigError::Bounds { min, max });
+        }
+        let root = Cell {
+            center: (min + max) * 0.5,
+            half: size.max_element() * 0.5 * 1.01,
+        };
+        Ok(Self {
+            geometry: Geometry::new(root, accuracy),
+        })
+    }
+
+    /// Ward's accuracy `a`.
+    pub fn accuracy(&self) -> f32 {
+        self.geometry.accuracy
+    }
+
+    /// The root cube.
+    pub fn root(&self) -> Cell {
+        self.geometry.root
+    }
+
+    pub(crate) fn geometry(&self) -> &Geometry {
+        &self.geometry
+    }
+
+    /// Validates `record` for this cache: its fields, and its position inside the root cube.
+    pub fn check(&self, record: &Record) -> Result<(), InsertError> {
+        record.validate()?;
+        let root = self.geometry.root;
+        if !root.contains(record.position) {
+            return Err(InsertError::OutOfBounds {
+                position: record.position,
+                center: root.center,
+                half_size: root.half,
+            });
+        }
+        Ok(())
+    }
+
+    /// The depth at which `record` is stored.
+    pub(crate) fn depth_of(&self, record: &Record) -> u32 {
+        self.geometry
+            .placement_depth(ic::influence_radius(record, self.geometry.accuracy))
+    }
+}
+
+/// What became of an accepted record.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Inserted {
+    /// Stored: later lookups (by any worker, or by this worker only for LW until the frame ends) see it.
+    Stored(RecordId),
+    /// Not stored: the WF `Discard` policy lost a race to create a child node (paper §3.3). The
+    /// caller still uses the sample for the pixel it computed it for.
+    Discarded(RecordId),
+}
+
+impl Inserted {
+    /// The id the record was given.
+    pub fn id(self) -> RecordId {
+        match self {
+            Self::Stored(id) | Self::Discarded(id) => id,
+        }
+    }
+}
+
+/// Counters a worker keeps in its handle (never shared while the frame runs).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct WorkerStats {
+    /// Lookups asked.
+    pub lookups: u64,
+    /// Lookups that found at least one valid record.
+    pub hits: u64,
+    /// Hits served by at least one record another worker computed.
+    pub shared_hits: u64,
+    /// Records offered (valid ones).
+    pub inserts: u64,
+    /// Records refused for bad input.
+    pub rejected: u64,
+    /// Records stored.
+    pub stored: u64,
+    /// Records dropped by WF `Discard`.
+    pub discarded: u64,
+    /// WF: compare-and-swaps on a child pointer that lost the race.
+    pub cas_failures: u64,
+    /// LCK: time spent waiting to acquire the lock.
+    pub lock_wait: Duration,
+    /// Most tree levels plus compare-and-swap attempts one insert took (WF's step bound).
+    pub max_insert_steps: u32,
+    /// Most nodes one lookup visited.
+    pub max_lookup_nodes: u32,
+}
+
+impl AddAssign<&WorkerStats> for WorkerStats {
+    fn add_assign(&mut self, o: &WorkerStats) {
+        self.lookups += o.lookups;
+        self.hits += o.hits;
+        self.shared_hits += o.shared_hits;
+        self.inserts += o.inserts;
+        self.rejected += o.rejected;
+        self.stored += o.stored;
+        self.discarded += o.discarded;
+        self.cas_failures += o.cas_failures;
+        self.lock_wait += o.lock_wait;
+        self.max_insert_steps = self.max_insert_steps.max(o.max_insert_steps);
+        self.max_lookup_nodes = self.max_lookup_nodes.max(o.max_lookup_nodes);
+    }
+}
+
+/// What closing a frame did.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct FrameReport {
+    /// The frame's workers' counters, summed.
+    pub workers: WorkerStats,
+    /// LW: time spent merging the local caches into the global one.
+    pub merge: Duration,
+}
+
+/// A cache's contents and history, read when no frame is running.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct CacheStats {
+    /// Records stored.
+    pub records: usize,
+    /// Octree nodes.
+    pub nodes: usize,
+    /// Counters of every finished handle, summed over all frames.
+    pub totals: WorkerStats,
+    /// LW: total merge time over all frames.
+    pub merge: Duration,
+    /// Frames closed.
+    pub frames: u64,
+}
+
+/// A shared irradiance cache.
+///
+/// `Sync`: workers share it by reference during a frame. Everything a worker changes for itself
+/// lives in its [`CacheHandle`].
+pub trait IrradianceCache: Send + Sync {
+    /// A worker's handle, borrowing the cache for the frame.
+    type Handle<'c>: CacheHandle<Residue = Self::Residue>
+    where
+        Self: 'c;
+    /// What a handle leaves behind for [`end_frame`](Self::end_frame).
+    type Residue: Send;
+
+    /// The scheme's short name, as the CLI spells it.
+    fn scheme(&self) -> &'static str;
+
+    /// The cache's configuration.
+    fn config(&self) -> &CacheConfig;
+
+    /// A handle for `worker`. Use each worker number for one live handle at a time (record ids
+    /// are unique per worker number).
+    fn handle(&self, worker: WorkerId) -> Self::Handle<'_>;
+
+    /// Closes a frame with what its handles left: sums their counters and, for LW, merges the
+    /// local caches into the global one (timed).
+    fn end_frame(&mut self, residues: Vec<Self::Residue>) -> FrameReport;
+
+    /// Every stored record (any order).
+    fn snapshot(&mut self) -> Vec<Record>;
+
+    /// Contents and counters.
+    fn stats(&mut self) -> CacheStats;
+}
+
+/// A worker's access to a cache during a frame.
+pub trait CacheHandle {
+    /// What the handle leaves for [`IrradianceCache::end_frame`].
+    type Residue;
+
+    /// The worker this handle belongs to.
+    fn worker(&self) -> WorkerId;
+
+    /// Interpolated irradiance at `point` with unit `normal`, or `None` when no record is valid
+    /// there (or the query is not finite).
+    fn lookup(&mut self, point: Vec3, normal: Vec3) -> Option<Interpolated>;
+
+    /// Stores `record` (its id and check field are assigned here). Bad input is refused with a
+    /// typed error and changes nothing.
+    fn insert(&mut self, record: Record) -> Result<Inserted, InsertError>;
+
+    /// Appends to `out` every record a lookup at `point`/`normal` would use now (not counted as a
+    /// lookup). For tests and diagnostics.
+    fn valid_records(&mut self, point: Vec3, normal: Vec3, out: &mut Vec<Record>);
+
+    /// This handle's counters so far.
+    fn stats(&self) -> &WorkerStats;
+
+    /// Ends the handle's frame.
+    fn finish(self) -> Self::Residue;
+}
+
+/// The bookkeeping every handle shares: identity, record numbering, counters.
+#[derive(Clone, Debug)]
+pub(crate) struct HandleCore {
+    pub worker: WorkerId,
+    pub next_seq: u64,
+    pub stats: WorkerStats,
+}
+
+impl HandleCore {
+    pub fn new(worker: WorkerId) -> Self {
+        Self {
+            worker,
+            next_seq: 0,
+            stats: WorkerStats::default(),
+        }
+    }
+
+    /// Validates and seals a record for `config`, counting it.
+    #[inline]
+    pub fn admit(
+        &mut self,
+        config: &CacheConfig,
+        mut record: Record,
+    ) -> Result<Record, InsertError> {
+        if let Err(e) = config.check(&record) {
+            self.stats.rejected += 1;
+            return Err(e);
+        }
+        let id = RecordId::new(self.worker, self.next_seq);
+        self.next_seq += 1;
+        record.seal(id);
+        self.stats.inserts += 1;
+        Ok(record)
+    }
+
+    /// Counts an insert's outcome and steps.
+    #[inline]
+    pub fn inserted(&mut self, outcome: Inserted, steps: u32) -> Inserted {
+        match outcome {
+            Inserted::Stored(_) => self.stats.stored += 1,
+            Inserted::Discarded(_) => self.stats.discarded += 1,
+        }
+        self.stats.max_insert_steps = self.stats.max_insert_steps.max(steps);
+        outcome
+    }
+
+    /// A fresh accumulator for a query by this worker, or `None` for a query that cannot be answered.
+    #[inline]
+    pub fn begin_lookup(
+        &mut self,
+        config: &CacheConfig,
+        point: Vec3,
+        normal: Vec3,
+    ) -> Option<Accumulator> {
+        self.stats.lookups += 1;
+        ic::is_valid_query(point, normal)
+            .then(|| Accumulator::new(point, normal, config.accuracy(), Some(self.worker)))
+    }
+
+    /// Counts a lookup's outcome.
+    #[inline]
+    pub fn end_lookup(&mut self, acc: &Accumulator, nodes: u32) -> Option<Interpolated> {
+        self.stats.max_lookup_nodes = self.stats.max_lookup_nodes.max(nodes);
+        let out = acc.finish();
+        if let Some(hit) = &out {
+            self.stats.hits += 1;
+            if hit.foreign > 0 {
+                self.stats.shared_hits += 1;
+            }
+        }
+        out
+    }
+}
+
+/// Collects the records a query would use, through any cache's visitor.
+pub(crate) fn collect_valid(
+    config: &CacheConfig,
+    point: Vec3,
+    normal: Vec3,
+    out: &mut Vec<Record>,
+    visit: impl FnOnce(Vec3, &mut dyn FnMut(&Record)) -> u32,
+) {
+    if !ic::is_valid_query(point, normal) {
+        return;
+    }
+    visit(point, &mut |r: &Record| {
+        if ic::valid_weight(r, point, normal, config.accuracy()).is_some() {
+            out.push(*r);
+        }
+    });
+}

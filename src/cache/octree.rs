@@ -1,0 +1,192 @@
+//! Loose-octree geometry shared by every cache, so that all of them place a record in the same node
+//! and prune a query with the same test.
+//!
+//! A node at depth `d` owns a cubic cell of half-size `h_d = h_0 / 2^d`. A record whose influence
+//! radius `rho = a * R_i` ([`crate::ic::influence_radius`]) is at most `h_d` is stored in the depth-`d`
+//! node whose cell holds its position, at the deepest such depth (capped at [`MAX_DEPTH`]). Every
+//! point where the record can be valid then lies within `h_d + rho <= 2 h_d` of the cell centre: in
+//! the node's *loose* cell, twice the size of the cell. Loose cells nest, so a query visits the root
+//! and, recursively, every child whose loose cell holds the query point, and meets every record that
+//! can be valid for it. Records too large for the root cell stay in the root, which every query
+//! visits.
+
+use glam::Vec3;
+
+/// The deepest level a record is placed at. Deeper cells would be smaller than the numerical
+/// slack the pruning test allows for, and gain nothing.
+pub const MAX_DEPTH: u32 = 16;
+
+/// Relative margin on the placement test: a record goes to depth `d` only if
+/// `rho * (1 + PLACEMENT_MARGIN) <= h_d`.
+const PLACEMENT_MARGIN: f32 = 1e-3;
+
+/// One of a cell's eight children.
+///
+/// Invariant: the value is below 8; bit 0 is set for the +x half, bit 1 for +y, bit 2 for +z.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Octant(u8);
+
+impl Octant {
+    /// All eight octants.
+    pub const ALL: [Octant; 8] = [
+        Octant(0),
+        Octant(1),
+        Octant(2),
+        Octant(3),
+        Octant(4),
+        Octant(5),
+        Octant(6),
+        Octant(7),
+    ];
+
+    /// The index into a node's children (below 8).
+    pub fn index(self) -> usize {
+        usize::from(self.0)
+    }
+}
+
+/// A cubic cell of the octree.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Cell {
+    /// Centre of the cell.
+    pub center: Vec3,
+    /// Half the edge length.
+    pub half: f32,
+}
+
+impl Cell {
+    /// The octant of this cell that holds `p` (a point on a dividing plane goes to the + side).
+    #[inline]
+    pub fn octant(&self, p: Vec3) -> Octant {
+        let bits = u8::from(p.x >= self.center.x)
+            | (u8::from(p.y >= self.center.y) << 1)
+            | (u8::from(p.z >= self.center.z) << 2);
+        Octant(bits)
+    }
+
+    /// The child cell in octant `o`.
+    #[inline]
+    pub fn child(&self, o: Octant) -> Cell {
+        let q = self.half * 0.5;
+        let sign = |bit: u8| if o.0 & bit != 0 { q } else { -q };
+        Cell {
+            center: self.center + Vec3::new(sign(1), sign(2), sign(4)),
+            half: q,
+        }
+    }
+
+    /// True when `p` lies in the closed cell.
+    pub fn contains(&self, p: Vec3) -> bool {
+        (p - self.center).abs().max_element() <= self.half
+    }
+}
+
+/// The root of an octree and the constants its queries use.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Geometry {
+    /// The root cell.
+    pub root: Cell,
+    /// Accuracy `a` of the cache (records are placed by `a * R_i`).
+    pub accuracy: f32,
+    /// Absolute slack added to every loose-cell test, covering the rounding of cell centres.
+    slack: f32,
+}
+
+impl Geometry {
+    /// Geometry for a root cube and an accuracy (both already validated by the caller).
+    pub fn new(root: Cell, accuracy: f32) -> Self {
+        // About 80 ulps of the largest coordinate the tree computes.
+        let slack = (root.center.abs().max_element() + root.half) * 1e-5;
+        Self {
+            root,
+            accuracy,
+            slack,
+        }
+    }
+
+    /// The depth at which a record with influence radius `rho` is stored.
+    pub fn placement_depth(&self, rho: f32) -> u32 {
+        let mut depth = 0;
+        let mut half = self.root.half;
+        while depth < MAX_DEPTH && rho * (1.0 + PLACEMENT_MARGIN) <= half * 0.5 {
+            half *= 0.5;
+            depth += 1;
+        }
+        depth
+    }
+
+    /// True when a query at `p` must visit the node of `cell` (a non-root node).
+    #[inline]
+    pub fn loose_contains(&self, cell: &Cell, p: Vec3) -> bool {
+        (p - cell.center).abs().max_element() <= 2.0 * cell.half + self.slack
+    }
+}
+
+#[cfg(all(test, not(checker)))]
+mod tests {
+    use super::*;
+
+    fn geometry() -> Geometry {
+        Geometry::new(
+            Cell {
+                center: Vec3::ZERO,
+                half: 8.0,
+            },
+            0.5,
+        )
+    }
+
+    #[test]
+    fn octants_and_children() {
+        let root = geometry().root;
+        let o = root.octant(Vec3::new(1.0, -1.0, 3.0));
+        assert_eq!(o.index(), 0b101);
+        let c = root.child(o);
+        assert_eq!(c.center, Vec3::new(4.0, -4.0, 4.0));
+        assert_eq!(c.half, 4.0);
+        assert!(c.contains(Vec3::new(1.0, -1.0, 3.0)));
+        // The dividing plane belongs to the + side.
+        assert_eq!(root.octant(Vec3::ZERO).index(), 7);
+    }
+
+    #[test]
+    fn placement_by_influence() {
+        let g = geometry();
+        assert_eq!(g.placement_depth(100.0), 0); // larger than the root: stays at the root
+        assert_eq!(g.placement_depth(8.0), 0); // needs h >= 8: the root
+        assert_eq!(g.placement_depth(4.0), 0); // 4 * (1 + margin) > 4: not depth 1
+        assert_eq!(g.placement_depth(3.9), 1);
+        assert_eq!(g.placement_depth(1.0), 2); // h_3 = 1 is too tight with the margin; h_2 = 2
+        assert_eq!(g.placement_depth(1e-9), MAX_DEPTH);
+    }
+
+    #[test]
+    fn a_record_is_reachable_from_everywhere_it_is_valid() {
+        // Walk a record down to its node and check that every point within rho of it lies in the
+        // loose cell of every node on the path.
+        let g = geometry();
+        let p = Vec3::new(3.3, -0.7, 5.9);
+        let rho = 0.3;
+        let depth = g.placement_depth(rho);
+        let mut cells = vec![g.root];
+        for _ in 0..depth {
+            let cell = *cells.last().unwrap();
+            cells.push(cell.child(cell.octant(p)));
+        }
+        assert!(cells.last().unwrap().contains(p));
+        for dir in [
+            Vec3::X,
+            -Vec3::X,
+            Vec3::Y,
+            -Vec3::Y,
+            Vec3::Z,
+            -Vec3::Z,
+            Vec3::ONE.normalize(),
+        ] {
+            let q = p + dir * rho * 0.999;
+            for cell in &cells[1..] {
+                assert!(g.loose_contains(cell, q), "{q} escapes {cell:?}");
+            }
+        }
+    }
+}

@@ -1,0 +1,251 @@
+//! TRA: the traditional sequential irradiance cache (paper §3, Listing 3), and the plain octree that
+//! LCK and LW are built from.
+//!
+//! [`Octree`] is Listing 3's `IrradianceCache`: `insert` walks from the root, creating missing
+//! children, to the node whose cell fits the record's influence radius and appends the record to
+//! that node's list; a query visits every node whose loose cell holds the point (see
+//! [`super::octree`]). Nodes live in one arena (`Vec`), children are indices into it.
+//!
+//! [`Sequential`] is the TRA scheme: the octree owned by one worker at a time. Its handle holds the
+//! octree's lock for the whole frame, so lookups and inserts pay nothing for it; a second worker
+//! asking for a handle waits until the first one is finished. TRA is meant to run on one thread.
+
+use super::octree::{Cell, Octant};
+use super::{
+    collect_valid, CacheConfig, CacheHandle, CacheStats, FrameReport, HandleCore, Inserted,
+    IrradianceCache, WorkerStats,
+};
+use crate::ic::{InsertError, Interpolated, Record, WorkerId};
+use crate::sync::{unpoison, Mutex, MutexGuard};
+use glam::Vec3;
+
+/// Index of a node in the arena. The root is node 0, so 0 in a child slot means "no child".
+type NodeIndex = u32;
+
+#[derive(Clone, Debug, Default)]
+struct Node {
+    children: [NodeIndex; 8],
+    records: Vec<Record>,
+}
+
+/// A sequential loose octree of records.
+#[derive(Clone, Debug)]
+pub struct Octree {
+    config: CacheConfig,
+    nodes: Vec<Node>,
+    len: usize,
+}
+
+impl Octree {
+    /// An empty octree.
+    pub fn new(config: CacheConfig) -> Self {
+        Self {
+            config,
+            nodes: vec![Node::default()],
+            len: 0,
+        }
+    }
+
+    /// The configuration.
+    pub fn config(&self) -> &CacheConfig {
+        &self.config
+    }
+
+    /// Records stored.
+    pub fn len(&self) -> usize {
+        self.len
+    }
+
+    /// True when no record is stored.
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    /// Nodes, the root included.
+    pub fn node_count(&self) -> usize {
+        self.nodes.len()
+    }
+
+    /// Every record, node by node.
+    pub fn records(&self) -> impl Iterator<Item = &Record> {
+        self.nodes.iter().flat_map(|n| n.records.iter())
+    }
+
+    /// Stores an admitted record (validated and sealed, inside the bounds); returns the number of
+    /// levels walked.
+    pub(crate) fn insert_admitted(&mut self, record: Record) -> u32 {
+        let depth = self.config.depth_of(&record);
+        let mut cell = self.config.root();
+        let mut node = 0usize;
+        for _ in 0..depth {
+            let octant = cell.octant(record.position);
+            cell = cell.child(octant);
+            let child = self.nodes[node].children[octant.index()];
+            node = if child != 0 {
+                child as usize
+            } else {
+                let fresh = self.nodes.len();
+                let index = NodeIndex::try_from(fresh).expect("octree exceeds 2^32 nodes");
+                self.nodes.push(Node::default());
+                self.nodes[node].children[octant.index()] = index;
+                fresh
+            };
+        }
+        self.nodes[node].records.push(record);
+        self.len += 1;
+        depth
+    }
+
+    /// Calls `f` with every record stored in a node that a query at `point` visits (a superset of
+    /// the valid ones); returns the number of nodes visited.
+    #[inline]
+    pub fn visit(&self, point: Vec3, f: &mut impl FnMut(&Record)) -> u32 {
+        let mut visited = 0;
+        self.visit_node(0, self.config.root(), point, f, &mut visited);
+        visited
+    }
+
+    fn visit_node(
+        &self,
+        index: usize,
+        cell: Cell,
+        point: Vec3,
+        f: &mut impl FnMut(&Record),
+        visited: &mut u32,
+    ) {
+        *visited += 1;
+        let node = &self.nodes[index];
+        node.records.iter().for_each(&mut *f);
+        for octant in Octant::ALL {
+            let child = node.children[octant.index()];
+            if child != 0 {
+                let child_cell = cell.child(octant);
+                if self.config.geometry().loose_contains(&child_cell, point) {
+                    self.visit_node(child as usize, child_cell, point, f, visited);
+                }
+            }
+        }
+    }
+
+    /// Validates and stores a record without a handle (for single-threaded use: oracles, merges,
+    /// tests). The record keeps the id and check field it has.
+    pub fn insert(&mut self, record: Record) -> Result<(), InsertError> {
+        self.config.check(&record)?;
+        self.insert_admitted(record);
+        Ok(())
+    }
+}
+
+/// TRA: the sequential cache (Listing 3). One worker at a time.
+#[derive(Debug)]
+pub struct Sequential {
+    config: CacheConfig,
+    tree: Mutex<Octree>,
+    stats: CacheStats,
+}
+
+impl Sequential {
+    /// An empty cache.
+    pub fn new(config: CacheConfig) -> Self {
+        Self {
+            config,
+            tree: Mutex::new(Octree::new(config)),
+            stats: CacheStats::default(),
+        }
+    }
+
+    fn tree_mut(&mut self) -> &mut Octree {
+        unpoison(self.tree.get_mut())
+    }
+}
+
+/// A TRA worker: holds the octree for the whole frame.
+#[derive(Debug)]
+pub struct SeqHandle<'c> {
+    tree: MutexGuard<'c, Octree>,
+    core: HandleCore,
+}
+
+impl IrradianceCache for Sequential {
+    type Handle<'c> = SeqHandle<'c>;
+    type Residue = WorkerStats;
+
+    fn scheme(&self) -> &'static str {
+        "tra"
+    }
+
+    fn config(&self) -> &CacheConfig {
+        &self.config
+    }
+
+    fn handle(&self, worker: WorkerId) -> SeqHandle<'_> {
+        SeqHandle {
+            // A worker that panicked with the handle poisons the lock; the octree is whole at
+            // every unwind point, so the next worker carries on with it.
+            tree: unpoison(self.tree.lock()),
+            core: HandleCore::new(worker),
+        }
+    }
+
+    fn end_frame(&mut self, residues: Vec<WorkerStats>) -> FrameReport {
+        let mut report = FrameReport::default();
+        residues.iter().for_each(|s| report.workers += s);
+        self.stats.totals += &report.workers;
+        self.stats.frames += 1;
+        report
+    }
+
+    fn snapshot(&mut self) -> Vec<Record> {
+        self.tree_mut().records().copied().collect()
+    }
+
+    fn stats(&mut self) -> CacheStats {
+        let (records, nodes) = {
+            let tree = self.tree_mut();
+            (tree.len(), tree.node_count())
+        };
+        CacheStats {
+            records,
+            nodes,
+            ..self.stats
+        }
+    }
+}
+
+impl CacheHandle for SeqHandle<'_> {
+    type Residue = WorkerStats;
+
+    fn worker(&self) -> WorkerId {
+        self.core.worker
+    }
+
+    #[inline]
+    fn lookup(&mut self, point: Vec3, normal: Vec3) -> Option<Interpolated> {
+        let mut acc = self.core.begin_lookup(self.tree.config(), point, normal)?;
+        let nodes = self.tree.visit(point, &mut |r| {
+            acc.add(r);
+        });
+        self.core.end_lookup(&acc, nodes)
+    }
+
+    fn insert(&mut self, record: Record) -> Result<Inserted, InsertError> {
+        let record = self.core.admit(self.tree.config(), record)?;
+        let steps = self.tree.insert_admitted(record);
+        Ok(self.core.inserted(Inserted::Stored(record.id()), steps))
+    }
+
+    fn valid_records(&mut self, point: Vec3, normal: Vec3, out: &mut Vec<Record>) {
+        let tree = &*self.tree;
+        collect_valid(tree.config(), point, normal, out, |p, f| {
+            tree.visit(p, &mut |r| f(r))
+        });
+    }
+
+    fn stats(&self) -> &WorkerStats {
+        &self.core.stats
+    }
+
+    fn finish(self) -> WorkerStats {
+        self.core.stats
+    }
+}

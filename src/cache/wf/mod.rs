@@ -1,0 +1,384 @@
+//! WF: the wait-free shared irradiance cache (paper §3.3, Listing 6), done right.
+//!
+//! Each node holds eight child pointers and an append-only [`RecordList`](list::RecordList).
+//!
+//! * **Insert** walks from the root towards the node that fits the record (the same placement as
+//!   every other cache, [`super::octree`]). When a child on the way is missing, the whole rest of
+//!   the path — the missing child, its descendants down to the target depth, and the record in the
+//!   last of them — is built privately and published with *one* compare-and-swap of the parent's
+//!   child pointer (Listing 6, lines 7–15). If another thread published that child first:
+//!   - [`CasFailure::Discard`] (the paper): the private subtree and the record are dropped and
+//!     counted; the caller still uses the sample for its pixel.
+//!   - [`CasFailure::Adopt`]: the private subtree is dropped and the walk continues into the
+//!     winner's child, where the record is stored. No sample is lost, as in Mitsuba 0.6's
+//!     lock-free octree.
+//! * **Lookup** reads child pointers and published slots only: no read-modify-write, no fence, no
+//!   store (unless the [`ReadFence`] policy asks for the paper's avoided barrier).
+//!
+//! **Wait-freedom.** No operation loops on a condition another thread controls. An insert descends
+//! at most [`MAX_DEPTH`](super::octree::MAX_DEPTH) levels, makes at most one child compare-and-swap
+//! per level (a failure moves it one level down, into the winner), and then one push (one
+//! `fetch_add`, at most one segment compare-and-swap, never retried). So an insert takes at most
+//! `2 * MAX_DEPTH` steps (levels + child compare-and-swaps), counted in
+//! [`WorkerStats::max_insert_steps`](super::WorkerStats). A lookup visits at most 27 nodes per level
+//! and reads each visited list once.
+//!
+//! Memory is reclaimed only when the whole cache is dropped: nothing is ever unlinked while the
+//! cache is shared, so no reader can meet freed memory and no epoch scheme is needed.
+
+mod list;
+pub mod orderings;
+
+use super::octree::{Cell, Octant};
+use super::{
+    collect_valid, CacheConfig, CacheHandle, CacheStats, FrameReport, HandleCore, Inserted,
+    IrradianceCache, WorkerStats,
+};
+use crate::ic::{InsertError, Interpolated, Record, WorkerId};
+use crate::sync::{fence, AtomicPtr, Ordering};
+use glam::Vec3;
+use list::RecordList;
+use orderings::{ord, Site};
+use std::ptr;
+
+pub use orderings::{Minimal, Orderings, ReadFence, SeqCstEverywhere};
+
+/// What an insert does when its compare-and-swap on a missing child loses the race.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum CasFailure {
+    /// Drop the sample from the cache and count it (Listing 6 as printed).
+    Discard,
+    /// Continue into the child the winner published and store the sample there.
+    #[default]
+    Adopt,
+}
+
+/// An octree node. Children and segments are owned through raw pointers, freed in `Drop`.
+struct Node<O: Orderings> {
+    /// Null, or a child published by a Release compare-and-swap and never changed again.
+    children: [AtomicPtr<Node<O>>; 8],
+    records: RecordList<O>,
+}
+
+impl<O: Orderings> Node<O> {
+    fn new() -> Self {
+        Self {
+            children: std::array::from_fn(|_| AtomicPtr::new(ptr::null_mut())),
+            records: RecordList::new(),
+        }
+    }
+
+    /// The child in `octant`, if published.
+    #[inline]
+    fn child(&self, octant: Octant) -> Option<&Node<O>> {
+        // Acquire (ChildRead): pairs with the Release compare-and-swap in `graft`; everything the
+        // publisher built privately (the child's own children, its list and the record in it)
+        // is visible before we read through the pointer.
+        let child = self.children[octant.index()].load(ord::<O>(Site::ChildRead));
+        // SAFETY: a non-null child pointer came from `Box::into_raw` in `graft`, was published
+        // once and is freed only when the cache (`&mut`) is dropped, which `&self` rules out.
+        unsafe { child.as_ref() }
+    }
+}
+
+impl<O: Orderings> Drop for Node<O> {
+    fn drop(&mut self) {
+        for child in &self.children {
+            // Relaxed: `&mut self` — every other thread's accesses happen-before this drop.
+            let child = child.load(Ordering::Relaxed);
+            if !child.is_null() {
+                // SAFETY: published from `Box::into_raw` in `graft` and owned by this node alone.
+                // Recursion is bounded by the tree depth.
+                drop(unsafe { Box::from_raw(child) });
+            }
+        }
+    }
+}
+
+/// WF: the wait-free cache, with the ordering policy `O` and a compare-and-swap failure policy.
+pub struct WaitFree<O: Orderings = Minimal> {
+    config: CacheConfig,
+    policy: CasFailure,
+    root: Box<Node<O>>,
+    stats: CacheStats,
+}
+
+impl<O: Orderings> std::fmt::Debug for WaitFree<O> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("WaitFree")
+            .field("orderings", &O::NAME)
+            .field("policy", &self.policy)
+            .field("config", &self.config)
+            .finish_non_exhaustive()
+    }
+}
+
+/// How an insert ended inside the tree.
+enum Placed {
+    Stored,
+    Discarded,
+    Full,
+}
+
+impl<O: Orderings> WaitFree<O> {
+    /// An empty cache.
+    pub fn new(config: CacheConfig, policy: CasFailure) -> Self {
+        Self {
+            config,
+            policy,
+            root: Box::new(Node::new()),
+            stats: CacheStats::default(),
+        }
+    }
+
+    /// The compare-and-swap failure policy.
+    pub fn policy(&self) -> CasFailure {
+        self.policy
+    }
+
+    /// Stores an admitted record. Returns the outcome, the steps taken (levels descended plus
+    /// compare-and-swap attempts) and the compare-and-swaps lost.
+    #[inline]
+    fn place(&self, record: Record) -> (Placed, u32, u32) {
+        let depth = self.config.depth_of(&record);
+        let mut node: &Node<O> = &self.root;
+        let mut cell = self.config.root();
+        let mut steps = 0;
+        let mut lost = 0;
+        for level in 1..=depth {
+            steps += 1;
+            let octant = cell.octant(record.position);
+            cell = cell.child(octant);
+            node = match node.child(octant) {
+                Some(child) => child,
+                None => {
+                    steps += 1;
+                    match self.graft(node, octant, cell, level, depth, record) {
+                        None => return (Placed::Stored, steps, lost),
+                        Some(winner) => {
+                            lost += 1;
+                            match self.policy {
+                                CasFailure::Discard => return (Placed::Discarded, steps, lost),
+                                CasFailure::Adopt => winner,
+                            }
+                        }
+                    }
+                }
+            };
+        }
+        match node.records.push(record) {
+            Ok(()) => (Placed::Stored, steps, lost),
+            Err(list::ListFull) => (Placed::Full, steps, lost),
+        }
+    }
+
+    /// Builds, privately, the path from the missing child of `parent` in `octant` (cell `cell`, at
+    /// `level`) down to `depth`, with `record` in its last node, and publishes it with one
+    /// compare-and-swap. `None` when published; otherwise frees the private path and returns the
+    /// child that won.
+    #[cold]
+    #[inline(never)]
+    fn graft<'a>(
+        &'a self,
+        parent: &'a Node<O>,
+        octant: Octant,
+        cell: Cell,
+        level: u32,
+        depth: u32,
+        record: Record,
+    ) -> Option<&'a Node<O>> {
+        let top = build_path::<O>(cell, level, depth, record);
+        let top = Box::into_raw(top);
+        match parent.children[octant.index()].compare_exchange(
+            ptr::null_mut(),
+            top,
+            // Release (ChildPublish): publishes the private subtree — its nodes, segments and the
+            // record — to readers that load the pointer with Acquire. Nothing is read through the
+            // replaced null, so no Acquire half is needed.
+            ord::<O>(Site::ChildPublish),
+            // Acquire (ChildCasFailure): with `Adopt` we walk into the winner's subtree next, so
+            // its construction must happen-before our reads of it.
+            ord::<O>(Site::ChildCasFailure),
+        ) {
+            Ok(_) => None,
+            Err(winner) => {
+                // SAFETY: `top` came from `Box::into_raw` above and was never shared (the
+                // compare-and-swap failed): we are its only owner.
+                drop(unsafe { Box::from_raw(top) });
+                // SAFETY: a non-null published child, live as long as the cache (see `Node::child`).
+                Some(unsafe { &*winner })
+            }
+        }
+    }
+
+    /// Calls `f` with every published record in a node a query at `point` visits; returns the
+    /// number of nodes visited.
+    #[inline]
+    fn visit(&self, point: Vec3, f: &mut impl FnMut(&Record)) -> u32 {
+        if O::READ_FENCE {
+            // SeqCst fence: the read-path barrier of the ReadFence policy (the paper's avoided cost).
+            fence(Ordering::SeqCst);
+        }
+        let mut visited = 0;
+        self.visit_node(&self.root, self.config.root(), point, f, &mut visited);
+        visited
+    }
+
+    fn visit_node(
+        &self,
+        node: &Node<O>,
+        cell: Cell,
+        point: Vec3,
+        f: &mut impl FnMut(&Record),
+        visited: &mut u32,
+    ) {
+        *visited += 1;
+        node.records.for_each(f);
+        for octant in Octant::ALL {
+            if let Some(child) = node.child(octant) {
+                let child_cell = cell.child(octant);
+                if self.config.geometry().loose_contains(&child_cell, point) {
+                    self.visit_node(child, child_cell, point, f, visited);
+                }
+            }
+        }
+    }
+
+    fn for_each_node(&mut self, f: &mut impl FnMut(&mut Node<O>)) {
+        fn walk<O: Orderings>(node: &mut Node<O>, f: &mut impl FnMut(&mut Node<O>)) {
+            f(node);
+            for child in &node.children {
+                // Relaxed: `&mut self` — no other thread is running.
+                let child = child.load(Ordering::Relaxed);
+                // SAFETY: published children are live until the cache is dropped, and `&mut self`
+                // makes this the only access.
+                if let Some(child) = unsafe { child.as_mut() } {
+                    walk(child, f);
+                }
+            }
+        }
+        walk(&mut self.root, f);
+    }
+}
+
+/// A private chain of nodes from `cell` at `level` down to `depth`, holding `record` at the bottom.
+fn build_path<O: Orderings>(cell: Cell, level: u32, depth: u32, record: Record) -> Box<Node<O>> {
+    let mut cells = Vec::with_capacity((depth - level) as usize);
+    let mut c = cell;
+    for _ in level..depth {
+        let octant = c.octant(record.position);
+        cells.push(octant);
+        c = c.child(octant);
+    }
+    let mut node = Box::new(Node::<O>::new());
+    // A fresh list in a fresh node: the push cannot find it full (the first segment has room).
+    let pushed = node.records.push(record);
+    debug_assert!(pushed.is_ok());
+    for octant in cells.into_iter().rev() {
+        let parent = Box::new(Node::<O>::new());
+        // Relaxed: the parent is still private; the Release compare-and-swap in `graft` publishes
+        // the whole chain at once.
+        parent.children[octant.index()].store(Box::into_raw(node), Ordering::Relaxed);
+        node = parent;
+    }
+    node
+}
+
+/// A WF worker.
+pub struct WfHandle<'c, O: Orderings> {
+    cache: &'c WaitFree<O>,
+    core: HandleCore,
+}
+
+impl<O: Orderings> IrradianceCache for WaitFree<O> {
+    type Handle<'c> = WfHandle<'c, O>;
+    type Residue = WorkerStats;
+
+    fn scheme(&self) -> &'static str {
+        match self.policy {
+            CasFailure::Adopt => "wf",
+            CasFailure::Discard => "wf-discard",
+        }
+    }
+
+    fn config(&self) -> &CacheConfig {
+        &self.config
+    }
+
+    fn handle(&self, worker: WorkerId) -> WfHandle<'_, O> {
+        WfHandle {
+            cache: self,
+            core: HandleCore::new(worker),
+        }
+    }
+
+    fn end_frame(&mut self, residues: Vec<WorkerStats>) -> FrameReport {
+        let mut report = FrameReport::default();
+        residues.iter().for_each(|s| report.workers += s);
+        self.stats.totals += &report.workers;
+        self.stats.frames += 1;
+        report
+    }
+
+    fn snapshot(&mut self) -> Vec<Record> {
+        let mut out = Vec::new();
+        self.for_each_node(&mut |node| node.records.for_each(&mut |r| out.push(*r)));
+        out
+    }
+
+    fn stats(&mut self) -> CacheStats {
+        let (mut records, mut nodes) = (0, 0);
+        self.for_each_node(&mut |node| {
+            nodes += 1;
+            records += node.records.published();
+        });
+        CacheStats {
+            records,
+            nodes,
+            ..self.stats
+        }
+    }
+}
+
+impl<O: Orderings> CacheHandle for WfHandle<'_, O> {
+    type Residue = WorkerStats;
+
+    fn worker(&self) -> WorkerId {
+        self.core.worker
+    }
+
+    #[inline]
+    fn lookup(&mut self, point: Vec3, normal: Vec3) -> Option<Interpolated> {
+        let mut acc = self.core.begin_lookup(&self.cache.config, point, normal)?;
+        let nodes = self.cache.visit(point, &mut |r| {
+            acc.add(r);
+        });
+        self.core.end_lookup(&acc, nodes)
+    }
+
+    fn insert(&mut self, record: Record) -> Result<Inserted, InsertError> {
+        let record = self.core.admit(&self.cache.config, record)?;
+        let (placed, steps, lost) = self.cache.place(record);
+        self.core.stats.cas_failures += u64::from(lost);
+        match placed {
+            Placed::Stored => Ok(self.core.inserted(Inserted::Stored(record.id()), steps)),
+            Placed::Discarded => Ok(self.core.inserted(Inserted::Discarded(record.id()), steps)),
+            Placed::Full => Err(InsertError::ListFull),
+        }
+    }
+
+    fn valid_records(&mut self, point: Vec3, normal: Vec3, out: &mut Vec<Record>) {
+        let cache = self.cache;
+        collect_valid(&cache.config, point, normal, out, |p, f| {
+            cache.visit(p, &mut |r| f(r))
+        });
+    }
+
+    fn stats(&self) -> &WorkerStats {
+        &self.core.stats
+    }
+
+    fn finish(self) -> WorkerStats {
+        self.core.stats
+    }
+}

@@ -1,0 +1,185 @@
+//! Memory-ordering policies for the wait-free cache: every atomic site of [`super`] takes its
+//! ordering from a policy type, so the same code runs with the minimal sound orderings, with
+//! `SeqCst` everywhere, or with a fence on the read path (what the paper avoided), and under loom
+//! with one site weakened at a time to show which orderings are needed.
+//!
+//! The trait is sealed: outside `loom` builds only the three sound policies exist.
+
+use crate::sync::Ordering::{self, AcqRel, Acquire, Relaxed, Release, SeqCst};
+
+/// The atomic sites of the wait-free cache. The discriminant indexes [`Orderings::SITES`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Site {
+    /// `fetch_add` on a list's head: reserves a slot index.
+    Reserve = 0,
+    /// Store of a slot's ready flag after its record is written.
+    SlotPublish,
+    /// Load of a slot's ready flag before its record is read.
+    SlotRead,
+    /// Load of a list's head by a reader (bounds the scan).
+    HeadRead,
+    /// Load of a segment pointer (writers and readers).
+    SegmentRead,
+    /// Successful compare-and-swap installing a new segment.
+    SegmentPublish,
+    /// Failed compare-and-swap on a segment pointer (another thread installed one).
+    SegmentCasFailure,
+    /// Load of a child pointer (writers and readers).
+    ChildRead,
+    /// Successful compare-and-swap publishing a privately built subtree.
+    ChildPublish,
+    /// Failed compare-and-swap on a child pointer (another thread published first).
+    ChildCasFailure,
+}
+
+impl Site {
+    /// How many sites there are.
+    pub const COUNT: usize = 10;
+
+    /// Every site, in index order.
+    pub const ALL: [Site; Site::COUNT] = [
+        Site::Reserve,
+        Site::SlotPublish,
+        Site::SlotRead,
+        Site::HeadRead,
+        Site::SegmentRead,
+        Site::SegmentPublish,
+        Site::SegmentCasFailure,
+        Site::ChildRead,
+        Site::ChildPublish,
+        Site::ChildCasFailure,
+    ];
+}
+
+mod sealed {
+    pub trait Sealed {}
+}
+
+/// An ordering policy: one ordering per [`Site`], and whether lookups start with a fence.
+pub trait Orderings: sealed::Sealed + Send + Sync + 'static {
+    /// The policy's name in tables and benchmark ids.
+    const NAME: &'static str;
+    /// The ordering of each site, indexed by `Site as usize`.
+    const SITES: [Ordering; Site::COUNT];
+    /// A `SeqCst` fence at the start of every lookup.
+    const READ_FENCE: bool = false;
+    /// Whether writers publish slots and readers check the flag. Only the loom-only
+    /// [`PaperLiteral`] policy clears it (readers then read every reserved slot, as Listing 6 does).
+    const PUBLISH_SLOTS: bool = true;
+}
+
+/// The ordering of `site` under policy `O` (a constant after inlining).
+#[inline(always)]
+pub(crate) const fn ord<O: Orderings>(site: Site) -> Ordering {
+    O::SITES[site as usize]
+}
+
+/// The minimal sound policy: Release on every publication, Acquire on every load that is followed
+/// by a read of what it points to, Relaxed where only atomicity is needed. The argument for each
+/// site is at the site, in `list.rs` and `mod.rs`.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Minimal;
+
+/// `SeqCst` at every site.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct SeqCstEverywhere;
+
+/// [`Minimal`], plus a `SeqCst` fence at the start of every lookup: the read-path barrier the
+/// paper avoided (§3.3).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct ReadFence;
+
+impl sealed::Sealed for Minimal {}
+impl sealed::Sealed for SeqCstEverywhere {}
+impl sealed::Sealed for ReadFence {}
+
+const MINIMAL: [Ordering; Site::COUNT] = [
+    Relaxed, // Reserve
+    Release, // SlotPublish
+    Acquire, // SlotRead
+    Relaxed, // HeadRead
+    Acquire, // SegmentRead
+    Release, // SegmentPublish
+    Acquire, // SegmentCasFailure
+    Acquire, // ChildRead
+    Release, // ChildPublish
+    Acquire, // ChildCasFailure
+];
+
+impl Orderings for Minimal {
+    const NAME: &'static str = "minimal";
+    const SITES: [Ordering; Site::COUNT] = MINIMAL;
+}
+
+impl Orderings for SeqCstEverywhere {
+    const NAME: &'static str = "seqcst";
+    const SITES: [Ordering; Site::COUNT] = [SeqCst; Site::COUNT];
+}
+
+impl Orderings for ReadFence {
+    const NAME: &'static str = "read-fence";
+    const SITES: [Ordering; Site::COUNT] = MINIMAL;
+    const READ_FENCE: bool = true;
+}
+
+/// The strongest ordering that is still legal at a site: `AcqRel` for read-modify-writes, `Acquire`
+/// for loads, `Release` for stores, `Acquire` for a failed compare-and-swap. Used by the ordering
+/// study to name what "one step stronger" means.
+pub const fn strongest_plain(site: Site) -> Ordering {
+    match site {
+        Site::Reserve | Site::SegmentPublish | Site::ChildPublish => AcqRel,
+        Site::SlotPublish => Release,
+        _ => Acquire,
+    }
+}
+
+/// Listing 6 as printed: no publication flag; readers read every slot below the head. Loom only:
+/// it is the race the paper shipped, and loom must catch it.
+#[cfg(feature = "loom")]
+#[derive(Clone, Copy, Debug, Default)]
+pub struct PaperLiteral;
+
+#[cfg(feature = "loom")]
+impl sealed::Sealed for PaperLiteral {}
+
+#[cfg(feature = "loom")]
+impl Orderings for PaperLiteral {
+    const NAME: &'static str = "paper-literal";
+    const SITES: [Ordering; Site::COUNT] = MINIMAL;
+    const PUBLISH_SLOTS: bool = false;
+}
+
+/// [`Minimal`] with the site numbered `SITE` weakened to `Relaxed`. Loom only: each instance is a
+/// candidate the ordering study asks loom to refute.
+#[cfg(feature = "loom")]
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Weakened<const SITE: usize>;
+
+#[cfg(feature = "loom")]
+impl<const SITE: usize> sealed::Sealed for Weakened<SITE> {}
+
+#[cfg(feature = "loom")]
+impl<const SITE: usize> Orderings for Weakened<SITE> {
+    const NAME: &'static str = "weakened";
+    const SITES: [Ordering; Site::COUNT] = {
+        let mut sites = MINIMAL;
+        sites[SITE] = Relaxed;
+        sites
+    };
+}
+
+#[cfg(all(test, not(checker)))]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sites_are_indexed_in_order() {
+        for (i, site) in Site::ALL.iter().enumerate() {
+            assert_eq!(*site as usize, i);
+        }
+        assert_eq!(ord::<Minimal>(Site::Reserve), Relaxed);
+        assert_eq!(ord::<Minimal>(Site::SlotPublish), Release);
+        assert_eq!(ord::<SeqCstEverywhere>(Site::HeadRead), SeqCst);
+        assert_eq!(strongest_plain(Site::Reserve), AcqRel);
+    }
+}

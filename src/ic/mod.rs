@@ -1,0 +1,315 @@
+//! Irradiance-cache mathematics, free of any concurrency: the record, Ward's weight and validity
+//! test, the clamped radius of influence, and weighted interpolation with gradients.
+//!
+//! References: G. Ward, F. Rubinstein, R. Clear, "A ray tracing solution for diffuse
+//! interreflection", SIGGRAPH 1988 (the weight `w_i = 1 / (|x - x_i| / R_i + sqrt(1 - n . n_i))`,
+//! validity `w_i > 1/a`, and the "in front" test); G. Ward, P. Heckbert, "Irradiance gradients",
+//! Eurographics Rendering Workshop 1992 (first-order extrapolation with translational and rotational
+//! gradients). The paper this crate studies (Dubla et al., §2.1) uses them unchanged.
+
+mod record;
+
+pub use record::{InsertError, Record, RecordId, WorkerId};
+
+use glam::{DVec3, Vec3};
+
+/// Floor on the weight's denominator, so a query exactly at a record (same point, same normal) gets
+/// a large finite weight (10^6) instead of a division by zero.
+pub const MIN_DENOMINATOR: f64 = 1e-6;
+
+/// Ward's "in front" test tolerance, relative to the record's radius: a record whose position lies
+/// more than this fraction of `R_i` in front of the shaded point's tangent plane is not used.
+pub const BEHIND_TOLERANCE: f32 = 0.05;
+
+/// Ward's weight of `record` for a query at `point` with unit normal `normal`:
+/// `1 / (|x - x_i| / R_i + sqrt(1 - n . n_i))`, computed in `f64`.
+pub fn ward_weight(record: &Record, point: Vec3, normal: Vec3) -> f64 {
+    let distance = f64::from((point - record.position).length());
+    let cos = f64::from(normal.dot(record.normal));
+    let denominator = distance / f64::from(record.radius) + (1.0 - cos).max(0.0).sqrt();
+    1.0 / denominator.max(MIN_DENOMINATOR)
+}
+
+/// True when `record` lies in front of the query point, so using it would bring light from
+/// geometry the point cannot see (Ward 1988, eq. 7: `d_i = (x - x_i) . (n + n_i) / 2 < -tol`).
+pub fn is_in_front(record: &Record, point: Vec3, normal: Vec3) -> bool {
+    let d = (point - record.position).dot((normal + record.normal) * 0.5);
+    d < -BEHIND_TOLERANCE * record.radius
+}
+
+/// How far from its position a record can be valid at accuracy `a`: `w > 1/a` needs
+/// `|x - x_i| / R_i < a`, so `a * R_i` bounds the search; the octrees place records by it.
+pub fn influence_radius(record: &Record, accuracy: f32) -> f32 {
+    accuracy * record.radius
+}
+
+/// A record's weight if it is valid for the query (weight above `1/a`, not in front), else `None`.
+pub fn valid_weight(record: &Record, point: Vec3, normal: Vec3, accuracy: f32) -> Option<f64> {
+    let w = ward_weight(record, point, normal);
+    (w > 1.0 / f64::from(accuracy) && !is_in_front(record, point, normal)).then_some(w)
+}
+
+/// Clamps a harmonic mean distance to `[min, max]`; an infinite or NaN distance (the hemisphere saw
+/// nothing) becomes `max`. This is the record radius the caches store.
+pub fn clamp_radius(harmonic_mean: f32, min: f32, max: f32) -> f32 {
+    if harmonic_mean.is_nan() {
+        max
+    } else {
+        harmonic_mean.clamp(min, max)
+    }
+}
+
+/// The first-order estimate of `record`'s irradiance at `point` with `normal` (Ward & Heckbert):
+/// `E_i + (n_i x n) . grad_r + (x - x_i) . grad_t`, per channel, clamped at zero.
+pub fn extrapolate(record: &Record, point: Vec3, normal: Vec3) -> Vec3 {
+    let rotation = record.normal.cross(normal);
+    let offset = point - record.position;
+    let e = record.irradiance;
+    Vec3::new(
+        e.x + rotation.dot(record.grad_r[0]) + offset.dot(record.grad_t[0]),
+        e.y + rotation.dot(record.grad_r[1]) + offset.dot(record.grad_t[1]),
+        e.z + rotation.dot(record.grad_r[2]) + offset.dot(record.grad_t[2]),
+    )
+    .max(Vec3::ZERO)
+}
+
+/// The outcome of a successful lookup.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Interpolated {
+    /// The weighted average of the valid records' extrapolated irradiance.
+    pub irradiance: Vec3,
+    /// The sum of their weights.
+    pub weight: f64,
+    /// How many records were valid.
+    pub records: u32,
+    /// How many of them another worker computed (the paper's argument for sharing).
+    pub foreign: u32,
+}
+
+/// Accumulates valid records for one query; every cache and the brute-force oracle use it, so they
+/// decide validity and sum contributions with the same arithmetic.
+#[derive(Clone, Debug)]
+pub struct Accumulator {
+    point: Vec3,
+    normal: Vec3,
+    accuracy: f32,
+    asker: Option<WorkerId>,
+    weight: f64,
+    sum: DVec3,
+    records: u32,
+    foreign: u32,
+}
+
+impl Accumulator {
+    /// A query at `point` with unit `normal`, at accuracy `a`, asked by `asker` (for the count of
+    /// foreign records; `None` counts none as foreign).
+    pub fn new(point: Vec3, normal: Vec3, accuracy: f32, asker: Option<WorkerId>) -> Self {
+        Self {
+            point,
+            normal,
+            accuracy,
+            asker,
+            weight: 0.0,
+            sum: DVec3::ZERO,
+            records: 0,
+            foreign: 0,
+        }
+    }
+
+    /// The query point.
+    pub fn point(&self) -> Vec3 {
+        self.point
+    }
+
+    /// Takes `record` into the average if it is valid for this query; returns whether it was.
+    #[inline]
+    pub fn add(&mut self, record: &Record) -> bool {
+        match valid_weight(record, self.point, self.normal, self.accuracy) {
+            Some(w) => {
+                self.weight += w;
+                self.sum += w * extrapolate(record, self.point, self.normal).as_dvec3();
+                self.records += 1;
+                if self.asker.is_some_and(|me| record.id().worker() != me) {
+                    self.foreign += 1;
+                }
+                true
+            }
+            None => false,
+        }
+    }
+
+    /// The interpolated irradiance, or `None` when no record was valid.
+    pub fn finish(&self) -> Option<Interpolated> {
+        (self.records > 0).then(|| Interpolated {
+            irradiance: (self.sum / self.weight).as_vec3(),
+            weight: self.weight,
+            records: self.records,
+            foreign: self.foreign,
+        })
+    }
+}
+
+/// True when a query point and normal can be answered at all (finite point, finite non-zero
+/// normal). Lookups with anything else return nothing.
+pub fn is_valid_query(point: Vec3, normal: Vec3) -> bool {
+    point.is_finite() && normal.is_finite() && normal.length_squared() > 0.0
+}
+
+#[cfg(all(test, not(checker)))]
+mod tests {
+    use super::*;
+
+    fn rec(position: Vec3, e: f32, radius: f32) -> Record {
+        Record::new(position, Vec3::Z, Vec3::splat(e), radius)
+    }
+
+    fn close(a: f64, b: f64) -> bool {
+        (a - b).abs() <= 1e-6 * b.abs().max(1.0)
+    }
+
+    #[test]
+    fn weight_by_hand() {
+        let r = rec(Vec3::ZERO, 1.0, 1.0);
+        // Distance 0.5, same normal: 1 / (0.5 / 1 + 0) = 2.
+        assert!(close(
+            ward_weight(&r, Vec3::new(0.5, 0.0, 0.0), Vec3::Z),
+            2.0
+        ));
+        // Distance 0.5 at radius 2: 1 / 0.25 = 4.
+        let r2 = rec(Vec3::ZERO, 1.0, 2.0);
+        assert!(close(
+            ward_weight(&r2, Vec3::new(0.0, 0.5, 0.0), Vec3::Z),
+            4.0
+        ));
+        // Same point, normal tilted so n . n_i = 0.75: 1 / sqrt(0.25) = 2.
+        let tilted = Vec3::new((1.0f32 - 0.75 * 0.75).sqrt(), 0.0, 0.75);
+        assert!(close(ward_weight(&r, Vec3::ZERO, tilted), 2.0));
+        // Both: distance 0.25 and n . n_i = 0.75: 1 / (0.25 + 0.5) = 4/3.
+        assert!(close(
+            ward_weight(&r, Vec3::new(0.25, 0.0, 0.0), tilted),
+            4.0 / 3.0
+        ));
+        // Exactly at the record: the floor on the denominator keeps it finite.
+        assert!(close(
+            ward_weight(&r, Vec3::ZERO, Vec3::Z),
+            1.0 / MIN_DENOMINATOR
+        ));
+    }
+
+    #[test]
+    fn validity_against_accuracy() {
+        let r = rec(Vec3::ZERO, 1.0, 1.0);
+        let x = Vec3::new(0.5, 0.0, 0.0); // weight 2
+        assert_eq!(valid_weight(&r, x, Vec3::Z, 0.6), Some(2.0)); // 2 > 1/0.6
+        assert_eq!(valid_weight(&r, x, Vec3::Z, 0.4), None); // 2 < 2.5
+        assert_eq!(valid_weight(&r, x, Vec3::Z, 0.5), None); // 2 = 1/0.5 is not above
+        assert!(close(f64::from(influence_radius(&r, 0.4)), 0.4));
+        // Opposite normal: sqrt(1 - (-1)) = sqrt 2 > any accuracy below sqrt 2.
+        assert_eq!(valid_weight(&r, Vec3::ZERO, -Vec3::Z, 1.0), None);
+    }
+
+    #[test]
+    fn in_front_test() {
+        let r = rec(Vec3::ZERO, 1.0, 1.0);
+        // The query point sits 0.2 below the record's plane: the record is in front of it.
+        assert!(is_in_front(&r, Vec3::new(0.1, 0.0, -0.2), Vec3::Z));
+        assert_eq!(
+            valid_weight(&r, Vec3::new(0.1, 0.0, -0.2), Vec3::Z, 1.0),
+            None
+        );
+        // 0.04 below is within the tolerance of 0.05 R.
+        assert!(!is_in_front(&r, Vec3::new(0.1, 0.0, -0.04), Vec3::Z));
+        // Above the plane is never in front.
+        assert!(!is_in_front(&r, Vec3::new(0.1, 0.0, 0.3), Vec3::Z));
+    }
+
+    #[test]
+    fn clamping() {
+        assert_eq!(clamp_radius(0.01, 0.1, 10.0), 0.1);
+        assert_eq!(clamp_radius(50.0, 0.1, 10.0), 10.0);
+        assert_eq!(clamp_radius(3.0, 0.1, 10.0), 3.0);
+        assert_eq!(clamp_radius(f32::INFINITY, 0.1, 10.0), 10.0);
+        assert_eq!(clamp_radius(f32::NAN, 0.1, 10.0), 10.0);
+    }
+
+    #[test]
+    fn interpolation_by_hand() {
+        let a = rec(Vec3::new(-0.5, 0.0, 0.0), 1.0, 1.0);
+        let b = rec(Vec3::new(0.5, 0.0, 0.0), 3.0, 1.0);
+        // Both at distance 0.5 -> weight 2 each -> plain average 2.
+        let mut acc = Accumulator::new(Vec3::ZERO, Vec3::Z, 0.6, None);
+        assert!(acc.add(&a) && acc.add(&b));
+        let out = acc.finish().unwrap();
+        assert!((out.irradiance - Vec3::splat(2.0)).abs().max_element() < 1e-6);
+        assert!(close(out.weight, 4.0));
+        assert_eq!(out.records, 2);
+
+        // A translational gradient of 1 per unit x on `a`: it extrapolates 1 + 0.5 = 1.5 at the
+        // origin, so the average becomes (1.5 + 3) / 2 = 2.25.
+        let a_grad = a.with_gradients([Vec3::X; 3], [Vec3::ZERO; 3]);
+        let mut acc = Accumulator::new(Vec3::ZERO, Vec3::Z, 0.6, None);
+        acc.add(&a_grad);
+        acc.add(&b);
+        assert!(
+            (acc.finish().unwrap().irradiance - Vec3::splat(2.25))
+                .abs()
+                .max_element()
+                < 1e-6
+        );
+
+        // Unequal weights: query at x = -0.25 gives distances 0.25 and 0.75 -> weights 4 and 4/3:
+        // (4 * 1 + 4/3 * 3) / (16/3) = 8 / (16/3) = 1.5.
+        let mut acc = Accumulator::new(Vec3::new(-0.25, 0.0, 0.0), Vec3::Z, 0.9, None);
+        acc.add(&a);
+        acc.add(&b);
+        let out = acc.finish().unwrap();
+        assert!((out.irradiance - Vec3::splat(1.5)).abs().max_element() < 1e-6);
+        assert!(close(out.weight, 16.0 / 3.0));
+    }
+
+    #[test]
+    fn rotational_gradient_by_hand() {
+        // n_i = Z, n = (s, 0, c): n_i x n = (0, s, 0). A rotational gradient (0, 1, 0) adds s.
+        let s = 0.6f32;
+        let n = Vec3::new(s, 0.0, 0.8);
+        let r = rec(Vec3::ZERO, 1.0, 1.0).with_gradients([Vec3::ZERO; 3], [Vec3::Y; 3]);
+        assert!(
+            (extrapolate(&r, Vec3::ZERO, n) - Vec3::splat(1.0 + s))
+                .abs()
+                .max_element()
+                < 1e-6
+        );
+        // A gradient that would drive the estimate negative is clamped at zero.
+        let r = rec(Vec3::ZERO, 0.1, 1.0).with_gradients([Vec3::X * -1.0; 3], [Vec3::ZERO; 3]);
+        assert_eq!(extrapolate(&r, Vec3::X, Vec3::Z), Vec3::ZERO);
+    }
+
+    #[test]
+    fn no_valid_record_means_no_answer() {
+        let far = rec(Vec3::new(5.0, 0.0, 0.0), 1.0, 1.0);
+        let mut acc = Accumulator::new(Vec3::ZERO, Vec3::Z, 0.5, None);
+        assert!(!acc.add(&far));
+        assert_eq!(acc.finish(), None);
+    }
+
+    #[test]
+    fn foreign_records_are_counted() {
+        let mut mine = rec(Vec3::ZERO, 1.0, 1.0);
+        mine.seal(RecordId::new(WorkerId::new(0), 0));
+        let mut theirs = rec(Vec3::X * 0.1, 1.0, 1.0);
+        theirs.seal(RecordId::new(WorkerId::new(1), 0));
+        let mut acc = Accumulator::new(Vec3::ZERO, Vec3::Z, 0.5, Some(WorkerId::new(0)));
+        acc.add(&mine);
+        acc.add(&theirs);
+        let out = acc.finish().unwrap();
+        assert_eq!((out.records, out.foreign), (2, 1));
+    }
+
+    #[test]
+    fn query_validation() {
+        assert!(is_valid_query(Vec3::ZERO, Vec3::Z));
+        assert!(!is_valid_query(Vec3::new(f32::NAN, 0.0, 0.0), Vec3::Z));
+        assert!(!is_valid_query(Vec3::ZERO, Vec3::ZERO));
+        assert!(!is_valid_query(Vec3::ZERO, Vec3::splat(f32::INFINITY)));
+    }
+}

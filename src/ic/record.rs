@@ -1,0 +1,330 @@
+//! The irradiance-cache record (paper §2.1; Ward et al. 1988; Ward & Heckbert 1992).
+
+use glam::Vec3;
+use std::fmt;
+
+/// The rendering thread that computed a record or asks a question of a cache.
+///
+/// Invariant: fits in 24 bits (it is packed into a [`RecordId`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct WorkerId(u32);
+
+impl WorkerId {
+    /// The largest worker number a [`RecordId`] can carry.
+    pub const MAX: u32 = (1 << 24) - 1;
+
+    /// Worker number `n`, reduced modulo 2^24 so the invariant holds for any input.
+    pub const fn new(n: u32) -> Self {
+        Self(n & Self::MAX)
+    }
+
+    /// The worker number.
+    pub const fn index(self) -> u32 {
+        self.0
+    }
+}
+
+impl fmt::Display for WorkerId {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "worker {}", self.0)
+    }
+}
+
+/// A record's identity: the worker that inserted it (top 24 bits) and that worker's running count
+/// of inserts (low 40 bits). Assigned by the cache handle on insert; unique per cache as long as
+/// each worker number is used by one handle at a time.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Default)]
+pub struct RecordId(u64);
+
+impl RecordId {
+    const SEQ_BITS: u32 = 40;
+
+    /// The `seq`-th record of `worker` (seq reduced modulo 2^40).
+    pub const fn new(worker: WorkerId, seq: u64) -> Self {
+        Self(((worker.0 as u64) << Self::SEQ_BITS) | (seq & ((1 << Self::SEQ_BITS) - 1)))
+    }
+
+    /// The worker that inserted the record.
+    pub const fn worker(self) -> WorkerId {
+        WorkerId((self.0 >> Self::SEQ_BITS) as u32)
+    }
+
+    /// The insert count of that worker when it inserted the record.
+    pub const fn seq(self) -> u64 {
+        self.0 & ((1 << Self::SEQ_BITS) - 1)
+    }
+
+    /// The packed value.
+    pub const fn get(self) -> u64 {
+        self.0
+    }
+}
+
+impl fmt::Display for RecordId {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "r{}.{}", self.worker().0, self.seq())
+    }
+}
+
+/// One irradiance sample: where it was taken, what it saw, and how far it may be reused.
+///
+/// The gradients are per colour channel: `grad_t[c]` is the translational gradient of channel `c`
+/// (change of irradiance per unit of displacement in the tangent plane) and `grad_r[c]` the
+/// rotational one (change per unit of rotation of the normal), as in Ward & Heckbert 1992.
+///
+/// `id` and `check` are written by the cache on insert: `check` is a hash of every other field, so
+/// a reader that sees a half-written ("torn") record can tell ([`Record::is_intact`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Record {
+    /// Where the hemisphere was sampled.
+    pub position: Vec3,
+    /// Unit surface normal at `position`.
+    pub normal: Vec3,
+    /// Irradiance (RGB), non-negative.
+    pub irradiance: Vec3,
+    /// Harmonic mean distance to the surfaces seen from `position`, already clamped
+    /// ([`crate::ic::clamp_radius`]): Ward's `R_i`. Positive.
+    pub radius: f32,
+    /// Translational gradient per channel.
+    pub grad_t: [Vec3; 3],
+    /// Rotational gradient per channel.
+    pub grad_r: [Vec3; 3],
+    id: RecordId,
+    check: u64,
+}
+
+/// Why a record was refused. The cache is left unchanged.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum InsertError {
+    /// A field holds a NaN or an infinity.
+    NonFinite {
+        /// The offending field.
+        field: &'static str,
+    },
+    /// The radius is zero or negative.
+    NonPositiveRadius(f32),
+    /// The normal's length differs from 1 by more than [`Record::NORMAL_TOLERANCE`].
+    NormalNotUnit {
+        /// Its length.
+        length: f32,
+    },
+    /// An irradiance channel is negative.
+    NegativeIrradiance(Vec3),
+    /// The position lies outside the cache's root bounds.
+    OutOfBounds {
+        /// The record's position.
+        position: Vec3,
+        /// Centre of the root cube.
+        center: Vec3,
+        /// Half the root cube's edge.
+        half_size: f32,
+    },
+    /// A record list cannot take another record. Only reachable under the `loom` feature, where
+    /// lists are shrunk to a few slots so the model checker reaches segment boundaries.
+    ListFull,
+}
+
+impl fmt::Display for InsertError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::NonFinite { field } => write!(f, "record field `{field}` is not finite"),
+            Self::NonPositiveRadius(r) => write!(f, "record radius {r} is not positive"),
+            Self::NormalNotUnit { length } => {
+                write!(f, "record normal has length {length}, expected 1")
+            }
+            Self::NegativeIrradiance(e) => write!(f, "record irradiance {e} has a negative channel"),
+            Self::OutOfBounds {
+                position,
+                center,
+                half_size,
+            } => write!(
+                f,
+                "record position {position} lies outside the cache bounds (centre {center}, half-size {half_size})"
+            ),
+            Self::ListFull => write!(f, "record list is full (model-checking capacity)"),
+        }
+    }
+}
+
+impl std::error::Error for InsertError {}
+
+impl Record {
+    /// How far a normal's length may stray from 1.
+    pub const NORMAL_TOLERANCE: f32 = 1e-3;
+
+    /// A record without gradients.
+    pub fn new(position: Vec3, normal: Vec3, irradiance: Vec3, radius: f32) -> Self {
+        Self {
+            position,
+            normal,
+            irradiance,
+            radius,
+            grad_t: [Vec3::ZERO; 3],
+            grad_r: [Vec3::ZERO; 3],
+            id: RecordId::default(),
+            check: 0,
+        }
+    }
+
+    /// The same record with translational and rotational gradients.
+    pub fn with_gradients(mut self, grad_t: [Vec3; 3], grad_r: [Vec3; 3]) -> Self {
+        self.grad_t = grad_t;
+        self.grad_r = grad_r;
+        self
+    }
+
+    /// The identity the cache gave the record (default until inserted).
+    pub fn id(&self) -> RecordId {
+        self.id
+    }
+
+    /// Checks the record's fields; the caches call it before changing anything.
+    pub fn validate(&self) -> Result<(), InsertError> {
+        let vectors = [
+            ("position", self.position),
+            ("normal", self.normal),
+            ("irradiance", self.irradiance),
+            ("grad_t[0]", self.grad_t[0]),
+            ("grad_t[1]", self.grad_t[1]),
+            ("grad_t[2]", self.grad_t[2]),
+            ("grad_r[0]", self.grad_r[0]),
+            ("grad_r[1]", self.grad_r[1]),
+            ("grad_r[2]", self.grad_r[2]),
+        ];
+        for (field, v) in vectors {
+            if !v.is_finite() {
+                return Err(InsertError::NonFinite { field });
+            }
+        }
+        if !self.radius.is_finite() {
+            return Err(InsertError::NonFinite { field: "radius" });
+        }
+        if self.radius <= 0.0 {
+            return Err(InsertError::NonPositiveRadius(self.radius));
+        }
+        let length = self.normal.length();
+        if (length - 1.0).abs() > Self::NORMAL_TOLERANCE {
+            return Err(InsertError::NormalNotUnit { length });
+        }
+        if self.irradiance.min_element() < 0.0 {
+            return Err(InsertError::NegativeIrradiance(self.irradiance));
+        }
+        Ok(())
+    }
+
+    /// Gives the record its identity and seals it with a hash of its fields.
+    pub(crate) fn seal(&mut self, id: RecordId) {
+        self.id = id;
+        self.check = self.digest();
+    }
+
+    /// True when the check field matches the other fields: the record was read whole, as sealed.
+    pub fn is_intact(&self) -> bool {
+        self.check == self.digest()
+    }
+
+    /// FNV-1a over the bit patterns of every field but `check`.
+    fn digest(&self) -> u64 {
+        const OFFSET: u64 = 0xcbf2_9ce4_8422_2325;
+        const PRIME: u64 = 0x0000_0100_0000_01b3;
+        let mut h = OFFSET;
+        let mut eat = |word: u64| {
+            for byte in word.to_le_bytes() {
+                h ^= u64::from(byte);
+                h = h.wrapping_mul(PRIME);
+            }
+        };
+        let mut vec = |v: Vec3| {
+            v.to_array()
+                .into_iter()
+                .for_each(|x| eat(x.to_bits().into()))
+        };
+        vec(self.position);
+        vec(self.normal);
+        vec(self.irradiance);
+        self.grad_t.iter().chain(&self.grad_r).for_each(|&g| vec(g));
+        eat(self.radius.to_bits().into());
+        eat(self.id.0);
+        // Never zero, so an all-zero (unwritten) record is never intact.
+        h | 1
+    }
+}
+
+#[cfg(all(test, not(checker)))]
+mod tests {
+    use super::*;
+
+    fn sample() -> Record {
+        Record::new(Vec3::new(1.0, 2.0, 3.0), Vec3::Z, Vec3::splat(0.5), 0.25)
+    }
+
+    #[test]
+    fn record_id_packs_worker_and_sequence() {
+        let id = RecordId::new(WorkerId::new(7), 123_456);
+        assert_eq!(id.worker(), WorkerId::new(7));
+        assert_eq!(id.seq(), 123_456);
+        assert_eq!(id.to_string(), "r7.123456");
+        assert_eq!(WorkerId::new(WorkerId::MAX + 2), WorkerId::new(1));
+    }
+
+    #[test]
+    fn sealing_detects_any_changed_field() {
+        let mut r = sample();
+        assert!(!r.is_intact(), "an unsealed record must not pass");
+        r.seal(RecordId::new(WorkerId::new(1), 1));
+        assert!(r.is_intact());
+        let mut torn = r;
+        torn.irradiance.y = 0.25;
+        assert!(!torn.is_intact());
+        let mut torn = r;
+        torn.grad_r[2].x = 1e-9;
+        assert!(!torn.is_intact());
+        let mut torn = r;
+        torn.id = RecordId::new(WorkerId::new(1), 2);
+        assert!(!torn.is_intact());
+        // An all-zero record (what an unwritten slot would hold) is never intact.
+        let zero = Record::new(Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, 0.0);
+        assert!(!zero.is_intact());
+    }
+
+    #[test]
+    fn validation_names_the_bad_field() {
+        assert_eq!(sample().validate(), Ok(()));
+        let mut r = sample();
+        r.position.x = f32::NAN;
+        assert_eq!(
+            r.validate(),
+            Err(InsertError::NonFinite { field: "position" })
+        );
+        let mut r = sample();
+        r.grad_t[1].z = f32::INFINITY;
+        assert_eq!(
+            r.validate(),
+            Err(InsertError::NonFinite { field: "grad_t[1]" })
+        );
+        let mut r = sample();
+        r.radius = 0.0;
+        assert_eq!(r.validate(), Err(InsertError::NonPositiveRadius(0.0)));
+        let mut r = sample();
+        r.radius = f32::NAN;
+        assert_eq!(
+            r.validate(),
+            Err(InsertError::NonFinite { field: "radius" })
+        );
+        let mut r = sample();
+        r.normal = Vec3::new(0.0, 0.0, 2.0);
+        assert_eq!(
+            r.validate(),
+            Err(InsertError::NormalNotUnit { length: 2.0 })
+        );
+        let mut r = sample();
+        r.irradiance.z = -0.1;
+        assert!(matches!(
+            r.validate(),
+            Err(InsertError::NegativeIrradiance(_))
+        ));
+        assert!(InsertError::NormalNotUnit { length: 2.0 }
+            .to_string()
+            .contains("length 2"));
+    }
+}

@@ -1,0 +1,19 @@
+//! # wfic — sharing an irradiance cache between rendering threads
+//!
+//! An implementation and verification study of Dubla, Debattista, Santos and Chalmers,
+//! *Wait-Free Shared-Memory Irradiance Cache* (EGPGV 2009): the sequential cache (TRA), a lock (LCK),
+//! per-thread local writes merged at frame end (LW) and the wait-free octree (WF), behind one trait.
+//!
+//! Layers, each using only the ones above it:
+//!
+//! 1. [`sync`] — the only module naming atomics, `UnsafeCell`, threads and locks (std, loom or shuttle).
+//! 2. [`ic`] — irradiance-cache mathematics: records, Ward's weight, validity, interpolation.
+//! 3. [`cache`] — the four schemes behind [`cache::IrradianceCache`].
+//!
+//! The paper mapped to the code, and every deviation from it, is in `paper-notes.md`.
+#![warn(missing_docs)]
+#![deny(unsafe_op_in_unsafe_fn)]
+
+pub mod cache;
+pub mod ic;
+pub mod sync;

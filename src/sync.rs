@@ -1,0 +1,94 @@
+//! The synchronisation facade: the only module of the crate that names atomics, `UnsafeCell`,
+//! threads and locks.
+//!
+//! Every concurrent data structure in [`crate::cache`] takes its primitives from here, so the code
+//! that ships is the code that the model checkers run:
+//!
+//! * default build: `std` types;
+//! * feature `loom`: [`loom`](https://docs.rs/loom) types, explored exhaustively by `loom::model`;
+//! * feature `shuttle`: [`shuttle`](https://docs.rs/shuttle) types, explored by random and PCT schedulers.
+//!
+//! The two checker features are mutually exclusive. `UnsafeCell` always has loom's closure-based
+//! shape (`with` / `with_mut`), so loom can track every access to a cell's contents; under `std` and
+//! `shuttle` the closures compile to a plain pointer access.
+
+#[cfg(all(feature = "loom", feature = "shuttle"))]
+compile_error!(
+    "features `loom` and `shuttle` are mutually exclusive: enable one model checker at a time \
+     (`cargo test --features loom` or `cargo test --features shuttle`)"
+);
+
+#[cfg(feature = "loom")]
+mod imp {
+    pub use loom::cell::UnsafeCell;
+    pub use loom::sync::atomic::{fence, AtomicBool, AtomicPtr, AtomicUsize, Ordering};
+    pub use loom::sync::{Arc, Mutex, MutexGuard, RwLock, RwLockReadGuard, RwLockWriteGuard};
+    pub use loom::thread;
+}
+
+#[cfg(all(feature = "shuttle", not(feature = "loom")))]
+mod imp {
+    pub use super::cell::UnsafeCell;
+    pub use shuttle::sync::atomic::{fence, AtomicBool, AtomicPtr, AtomicUsize, Ordering};
+    pub use shuttle::sync::{Arc, Mutex, MutexGuard, RwLock, RwLockReadGuard, RwLockWriteGuard};
+    pub use shuttle::thread;
+}
+
+#[cfg(not(any(feature = "loom", feature = "shuttle")))]
+mod imp {
+    pub use super::cell::UnsafeCell;
+    pub use std::sync::atomic::{fence, AtomicBool, AtomicPtr, AtomicUsize, Ordering};
+    pub use std::sync::{Arc, Mutex, MutexGuard, RwLock, RwLockReadGuard, RwLockWriteGuard};
+    pub use std::thread;
+}
+
+pub use imp::*;
+pub use std::sync::{LockResult, PoisonError, TryLockError};
+
+/// A `std::cell::UnsafeCell` with loom's API shape, used where loom itself is not.
+#[cfg(not(feature = "loom"))]
+mod cell {
+    /// Interior mutability with access through closures, as `loom::cell::UnsafeCell` offers it.
+    ///
+    /// Under `std` and `shuttle` this is a zero-cost wrapper: shuttle checks schedules, not
+    /// memory accesses, so it has no cell of its own.
+    #[derive(Debug, Default)]
+    pub struct UnsafeCell<T>(std::cell::UnsafeCell<T>);
+
+    impl<T> UnsafeCell<T> {
+        /// Wraps `value`.
+        pub fn new(value: T) -> Self {
+            Self(std::cell::UnsafeCell::new(value))
+        }
+
+        /// Calls `f` with a shared raw pointer to the contents.
+        #[inline(always)]
+        pub fn with<R>(&self, f: impl FnOnce(*const T) -> R) -> R {
+            f(self.0.get())
+        }
+
+        /// Calls `f` with a unique raw pointer to the contents.
+        #[inline(always)]
+        pub fn with_mut<R>(&self, f: impl FnOnce(*mut T) -> R) -> R {
+            f(self.0.get())
+        }
+    }
+}
+
+/// Recovers the guard of a poisoned lock.
+///
+/// A worker that panics while it holds a cache lock poisons it. The caches keep their invariants
+/// at every point where a panic can unwind (a record is pushed whole or not at all), so the data
+/// behind a poisoned lock is sound and the other workers go on with it.
+pub fn unpoison<G>(result: LockResult<G>) -> G {
+    result.unwrap_or_else(PoisonError::into_inner)
+}
+
+/// Recovers a guard from a `try_*` call: `Some` when the lock was free (poisoned or not).
+pub fn try_unpoison<G>(result: Result<G, TryLockError<G>>) -> Option<G> {
+    match result {
+        Ok(guard) => Some(guard),
+        Err(TryLockError::Poisoned(poisoned)) => Some(poisoned.into_inner()),
+        Err(TryLockError::WouldBlock) => None,
+    }
+}
