@@ -42,6 +42,7 @@ use wfic::cache::{
     Octree, RwLockFlavour, Sequential, WaitFree,
 };
 use wfic::ic::{clamp_radius, Accumulator, Record, WorkerId};
+use wfic::workload::SplitMix64 as Rng;
 
 /// Records in the cache before any timed operation.
 const PREFILL: usize = 4096;
@@ -67,38 +68,6 @@ const PREFILL_WORKER: WorkerId = WorkerId::new(1000);
 // ---------------------------------------------------------------------------------------------
 // Deterministic workload
 // ---------------------------------------------------------------------------------------------
-
-/// SplitMix64 (Steele, Lea, Flood 2014): small, seedable, good enough for a workload.
-struct Rng(u64);
-
-impl Rng {
-    fn new(seed: u64) -> Self {
-        Self(seed)
-    }
-
-    fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-        z ^ (z >> 31)
-    }
-
-    /// Uniform in `[0, 1)`.
-    fn f32(&mut self) -> f32 {
-        (self.next_u64() >> 40) as f32 / (1u64 << 24) as f32
-    }
-
-    /// Uniform in `[lo, hi)`.
-    fn range(&mut self, lo: f32, hi: f32) -> f32 {
-        lo + (hi - lo) * self.f32()
-    }
-
-    /// Uniform in `0..n`.
-    fn index(&mut self, n: usize) -> usize {
-        ((self.next_u64() >> 32) * n as u64 >> 32) as usize
-    }
-}
 
 /// An axis-aligned rectangle of the scene: `origin + s * u + t * v`, `s` in `[0, len_u]`, `t` in
 /// `[0, len_v]`.
@@ -199,14 +168,14 @@ impl Scene {
     fn sample(&self, rng: &mut Rng) -> SurfacePoint {
         let total = *self.cumulative.last().unwrap();
         loop {
-            let x = rng.f32() * total;
+            let x = rng.next_f32() * total;
             let face = self.cumulative.partition_point(|&c| c <= x);
             let face = face.min(self.faces.len() - 1);
             let f = &self.faces[face];
             let sp = SurfacePoint {
                 face,
-                s: rng.f32() * f.len_u,
-                t: rng.f32() * f.len_v,
+                s: rng.next_f32() * f.len_u,
+                t: rng.next_f32() * f.len_v,
             };
             let (p, n) = self.position(sp);
             if !self.hidden(p + n * 1e-3) {
@@ -229,7 +198,8 @@ impl Scene {
         let radius = clamp_radius(0.8 * edge * rng.range(0.5, 1.5), MIN_RADIUS, MAX_RADIUS);
         let light = Vec3::new(2.5, 4.9, 2.5);
         let falloff = 2.0 / (1.0 + (p - light).length_squared() * 0.25);
-        let irradiance = Vec3::new(1.0, 0.9, 0.8) * (0.3 + falloff) + Vec3::splat(0.05 * rng.f32());
+        let irradiance =
+            Vec3::new(1.0, 0.9, 0.8) * (0.3 + falloff) + Vec3::splat(0.05 * rng.next_f32());
         let mut tangent =
             |scale: f32| f.u * rng.range(-scale, scale) + f.v * rng.range(-scale, scale);
         let grad_t = [tangent(0.1), tangent(0.1), tangent(0.1)];
@@ -268,11 +238,11 @@ impl Workload {
 
         let queries = (0..QUERIES)
             .map(|_| {
-                let sp = if rng.f32() < NEAR_SHARE {
+                let sp = if rng.next_f32() < NEAR_SHARE {
                     // Inside the validity radius `a * R` of a stored record, on its face.
-                    let i = rng.index(PREFILL);
+                    let i = rng.below(PREFILL as u64) as usize;
                     let (site, f) = (sites[i], &scene.faces[sites[i].face]);
-                    let reach = 0.9 * ACCURACY * prefill[i].radius * rng.f32().sqrt();
+                    let reach = 0.9 * ACCURACY * prefill[i].radius * rng.next_f32().sqrt();
                     let angle = rng.range(0.0, std::f32::consts::TAU);
                     SurfacePoint {
                         s: (site.s + reach * angle.cos()).clamp(0.0, f.len_u),
@@ -307,7 +277,7 @@ impl Workload {
                         next_insert += 1;
                         Op::Insert(next_insert - 1)
                     } else {
-                        Op::Lookup(rng.index(QUERIES) as u32)
+                        Op::Lookup(rng.below(QUERIES as u64) as u32)
                     }
                 })
                 .collect()

@@ -17,3 +17,9 @@
 pub mod cache;
 pub mod ic;
 pub mod sync;
+pub mod workload;
+
+/// The README's example, compiled and run as a doctest.
+#[doc = include_str!("../README.md")]
+#[cfg(doctest)]
+pub struct ReadmeDoctests;

@@ -35,7 +35,14 @@ fn normal() -> impl Strategy<Value = Vec3> {
 
 fn record() -> impl Strategy<Value = Record> {
     let position = prop_oneof![vec3(0.0, 4.0), vec3(1.5, 2.5)];
-    (position, normal(), vec3(0.0, 5.0), 0.05f32..1.5, vec3(-0.5, 0.5), vec3(-0.5, 0.5))
+    (
+        position,
+        normal(),
+        vec3(0.0, 5.0),
+        0.05f32..1.5,
+        vec3(-0.5, 0.5),
+        vec3(-0.5, 0.5),
+    )
         .prop_map(|(p, n, e, r, gt, gr)| {
             Record::new(p, n, e, r).with_gradients([gt, gt * 0.5, -gt], [gr, -gr, gr * 0.25])
         })
@@ -58,7 +65,10 @@ fn queries(records: &[Record]) -> impl Strategy<Value = Vec<(Vec3, Vec3)>> {
 }
 
 fn case() -> impl Strategy<Value = (f32, Vec<Record>, Vec<(Vec3, Vec3)>)> {
-    (prop::sample::select(vec![0.15f32, 0.3, 0.6, 1.2]), prop::collection::vec(record(), 0..60))
+    (
+        prop::sample::select(vec![0.15f32, 0.3, 0.6, 1.2]),
+        prop::collection::vec(record(), 0..60),
+    )
         .prop_flat_map(|(a, records)| {
             let q = queries(&records);
             (Just(a), Just(records), q)
@@ -88,7 +98,11 @@ impl SchemeCheck for Agree<'_> {
         }
         let residue = writer.finish();
         cache.end_frame(vec![residue]);
-        assert_eq!(cache.stats().records, self.records.len(), "{scheme}: record count");
+        assert_eq!(
+            cache.stats().records,
+            self.records.len(),
+            "{scheme}: record count"
+        );
 
         let a = cache.config().accuracy();
         let mut reader = cache.handle(w(1));
@@ -174,5 +188,8 @@ fn the_property_sees_misses_and_blends() {
             }
         }
     }
-    assert!(misses > 20 && singles > 20 && blends > 20, "{misses} {singles} {blends}");
+    assert!(
+        misses > 20 && singles > 20 && blends > 20,
+        "{misses} {singles} {blends}"
+    );
 }

@@ -56,14 +56,18 @@ impl SchemeCheck for Stress {
                                     .unwrap_or_else(|e| panic!("{scheme}: insert refused: {e}"));
                                 inserted.push(outcome);
                                 for k in 0..lookups_per_insert {
-                                    let (p, n) = query(&mut rng, frame as u32 * threads, threads, i);
+                                    let (p, n) =
+                                        query(&mut rng, frame as u32 * threads, threads, i);
                                     if k == 0 {
                                         // A racing read: every record it returns must be whole
                                         // and one that some worker really inserted.
                                         found.clear();
                                         handle.valid_records(p, n, &mut found);
                                         for r in &found {
-                                            assert!(is_genuine(r), "{scheme}: phantom or torn {r:?}");
+                                            assert!(
+                                                is_genuine(r),
+                                                "{scheme}: phantom or torn {r:?}"
+                                            );
                                         }
                                         checked_reads += found.len() as u64;
                                     } else if let Some(hit) = handle.lookup(p, n) {
@@ -91,7 +95,10 @@ impl SchemeCheck for Stress {
             assert_eq!(report.workers.inserts, per_frame * u64::from(threads));
         }
         // The racing reads did meet records (otherwise they checked nothing).
-        assert!(checked_reads > 1_000, "{scheme}: racing reads saw only {checked_reads} records");
+        assert!(
+            checked_reads > 1_000,
+            "{scheme}: racing reads saw only {checked_reads} records"
+        );
 
         let stats = cache.stats();
         let total = per_frame * u64::from(threads) * FRAMES;
@@ -121,8 +128,15 @@ impl SchemeCheck for Stress {
         assert_eq!(snapshot.len(), stored.len(), "{scheme}: snapshot size");
         let ids: HashSet<RecordId> = snapshot.iter().map(Record::id).collect();
         assert_eq!(ids.len(), snapshot.len(), "{scheme}: duplicated record");
-        assert!(snapshot.iter().all(is_genuine), "{scheme}: torn record in snapshot");
-        assert_eq!(ids, stored.iter().copied().collect(), "{scheme}: stored set");
+        assert!(
+            snapshot.iter().all(is_genuine),
+            "{scheme}: torn record in snapshot"
+        );
+        assert_eq!(
+            ids,
+            stored.iter().copied().collect(),
+            "{scheme}: stored set"
+        );
 
         // Every stored record is found by a lookup at its own position, exactly once.
         let mut handle = cache.handle(w(threads * FRAMES as u32 + 1));
@@ -144,13 +158,17 @@ impl SchemeCheck for Stress {
 fn query(rng: &mut Rng, first_worker: u32, threads: u32, seq: u64) -> (Vec3, Vec3) {
     match rng.below(4) {
         0 => (
-            Vec3::new(rng.range(0.0, 10.0), rng.range(0.0, 10.0), rng.range(0.0, 10.0)),
+            Vec3::new(
+                rng.range(0.0, 10.0),
+                rng.range(0.0, 10.0),
+                rng.range(0.0, 10.0),
+            ),
             AXES[rng.below(6) as usize],
         ),
         _ => {
             let worker = first_worker + rng.below(u64::from(threads)) as u32;
             let r = record_for(worker, seq.saturating_sub(rng.below(64)));
-            let jitter = Vec3::new(rng.f32(), rng.f32(), rng.f32()) * 0.1;
+            let jitter = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 0.1;
             (r.position + jitter, r.normal)
         }
     }

@@ -26,10 +26,14 @@ pub fn with_scheme(scheme: &str, config: CacheConfig, check: &mut impl SchemeChe
         "lck" => check.check(Locked::<MutexFlavour>::new(config)),
         "lck-rw" => check.check(Locked::<RwLockFlavour>::new(config)),
         "lw" => check.check(LocalWrite::new(config)),
-        "wf" => check.check(WaitFree::<wfic::cache::wf::Minimal>::new(config, CasFailure::Adopt)),
-        "wf-discard" => {
-            check.check(WaitFree::<wfic::cache::wf::Minimal>::new(config, CasFailure::Discard))
-        }
+        "wf" => check.check(WaitFree::<wfic::cache::wf::Minimal>::new(
+            config,
+            CasFailure::Adopt,
+        )),
+        "wf-discard" => check.check(WaitFree::<wfic::cache::wf::Minimal>::new(
+            config,
+            CasFailure::Discard,
+        )),
         other => panic!("unknown scheme {other}"),
     }
 }
@@ -41,39 +45,18 @@ pub fn for_each_scheme(config: CacheConfig, check: &mut impl SchemeCheck) {
     }
 }
 
-/// SplitMix64: a tiny deterministic generator for test data.
-#[derive(Clone, Debug)]
-pub struct Rng(u64);
-
-impl Rng {
-    pub fn new(seed: u64) -> Self {
-        Self(seed)
-    }
-
-    pub fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-        z ^ (z >> 31)
-    }
-
-    /// Uniform in [0, 1).
-    pub fn f32(&mut self) -> f32 {
-        (self.next_u64() >> 40) as f32 / (1u64 << 24) as f32
-    }
-
-    pub fn range(&mut self, lo: f32, hi: f32) -> f32 {
-        lo + (hi - lo) * self.f32()
-    }
-
-    pub fn below(&mut self, n: u64) -> u64 {
-        self.next_u64() % n
-    }
-}
+/// The crate's deterministic generator, for test data.
+pub use wfic::workload::SplitMix64 as Rng;
 
 /// The six axis-aligned unit normals.
-pub const AXES: [Vec3; 6] = [Vec3::X, Vec3::NEG_X, Vec3::Y, Vec3::NEG_Y, Vec3::Z, Vec3::NEG_Z];
+pub const AXES: [Vec3; 6] = [
+    Vec3::X,
+    Vec3::NEG_X,
+    Vec3::Y,
+    Vec3::NEG_Y,
+    Vec3::Z,
+    Vec3::NEG_Z,
+];
 
 /// The stress tests' world: a 10-unit box.
 pub fn world(accuracy: f32) -> CacheConfig {
@@ -84,11 +67,15 @@ pub fn world(accuracy: f32) -> CacheConfig {
 /// tell whether a record it met is one that was really inserted.
 pub fn record_for(worker: u32, seq: u64) -> Record {
     let mut rng = Rng::new((u64::from(worker) << 40) ^ seq ^ 0x5eed);
-    let position = Vec3::new(rng.range(0.0, 10.0), rng.range(0.0, 10.0), rng.range(0.0, 10.0));
+    let position = Vec3::new(
+        rng.range(0.0, 10.0),
+        rng.range(0.0, 10.0),
+        rng.range(0.0, 10.0),
+    );
     let normal = AXES[rng.below(6) as usize];
-    let irradiance = Vec3::new(rng.f32(), rng.f32(), rng.f32()) * 4.0;
+    let irradiance = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 4.0;
     let radius = rng.range(0.2, 0.6);
-    let g = Vec3::new(rng.f32(), rng.f32(), rng.f32()) * 0.1;
+    let g = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 0.1;
     Record::new(position, normal, irradiance, radius).with_gradients([g, -g, g * 0.5], [-g, g, g])
 }
 

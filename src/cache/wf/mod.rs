@@ -308,7 +308,7 @@ impl<O: Orderings> IrradianceCache for WaitFree<O> {
     fn handle(&self, worker: WorkerId) -> WfHandle<'_, O> {
         WfHandle {
             cache: self,
-            core: HandleCore::new(worker),
+            core: HandleCore::new(worker, self.stats.frames),
         }
     }
 
