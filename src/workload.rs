@@ -6,10 +6,16 @@
 //! The hemisphere sampling is replaced by a fixed amount of arithmetic per record
 //! (`work_per_record`), so the balance between cache access and sample computation can be chosen.
 
-use crate::cache::{CacheConfig, CacheHandle, FrameReport, IrradianceCache};
-use crate::ic::{Record, WorkerId};
+use crate::cache::CacheConfig;
+#[cfg(not(checker))]
+use crate::cache::{CacheHandle, FrameReport, IrradianceCache};
+use crate::ic::Record;
+#[cfg(not(checker))]
+use crate::ic::WorkerId;
+#[cfg(not(checker))]
 use crate::sync::{thread, AtomicUsize, Ordering};
 use glam::Vec3;
+#[cfg(not(checker))]
 use std::time::{Duration, Instant};
 
 /// SplitMix64 (Steele, Lea, Flood 2014): a small, fast, deterministic generator.
@@ -117,6 +123,7 @@ pub fn busy_work(iterations: u32, seed: u64) -> u64 {
 }
 
 /// One synthetic frame's parameters.
+#[cfg(not(checker))]
 #[derive(Clone, Copy, Debug)]
 pub struct Frame {
     /// The room.
@@ -132,6 +139,7 @@ pub struct Frame {
 }
 
 /// What one synthetic frame did.
+#[cfg(not(checker))]
 #[derive(Clone, Copy, Debug)]
 pub struct FrameResult {
     /// Wall-clock time of the frame, merge included.
@@ -141,10 +149,12 @@ pub struct FrameResult {
 }
 
 /// Shading points per chunk handed to a worker.
+#[cfg(not(checker))]
 const CHUNK: usize = 256;
 
 /// Runs one frame of `frame` on `cache` with `frame.threads` workers; `progress` is called with the
 /// number of points finished so far (from worker threads).
+#[cfg(not(checker))]
 pub fn run_frame<C: IrradianceCache>(
     cache: &mut C,
     frame: &Frame,
