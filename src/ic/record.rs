@@ -216,10 +216,18 @@ impl Record {
         Ok(())
     }
 
-    /// Gives the record its identity and seals it with a hash of its fields.
+    /// Gives the record its identity and seals it with a hash of its fields (the caches do this
+    /// on insert, overwriting any earlier id).
     pub(crate) fn seal(&mut self, id: RecordId) {
         self.id = id;
         self.check = self.digest();
+    }
+
+    /// The record with identity `id`, sealed: for code that stores records outside a cache (the
+    /// bare-list models, oracles).
+    pub fn sealed(mut self, id: RecordId) -> Self {
+        self.seal(id);
+        self
     }
 
     /// True when the check field matches the other fields: the record was read whole, as sealed.
