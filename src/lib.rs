@@ -21,5 +21,5 @@ pub mod workload;
 
 /// The README's example, compiled and run as a doctest.
 #[doc = include_str!("../README.md")]
-#[cfg(doctest)]
+#[cfg(all(doctest, not(checker)))]
 pub struct ReadmeDoctests;

@@ -21,7 +21,7 @@ mod sequential;
 pub mod wf;
 
 pub use local_write::{LocalWrite, LwHandle};
-pub use locked::{LckHandle, Locked, MutexFlavour, RwLockFlavour};
+pub use locked::{LckHandle, LockFlavour, Locked, MutexFlavour, RwLockFlavour};
 pub use oracle::BruteForce;
 pub use sequential::{Octree, SeqHandle, Sequential};
 pub use wf::{CasFailure, WaitFree, WfHandle};
