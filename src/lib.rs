@@ -16,6 +16,7 @@
 
 pub mod cache;
 pub mod ic;
+pub mod lincheck;
 pub mod sync;
 pub mod workload;
 
