@@ -1,0 +1,346 @@
+//! Shuttle schedule exploration of WF, LCK and LW (`cargo test --features shuttle`): 4–8 threads
+//! and tens of operations per thread — sizes loom cannot reach — mixing inserts into shared lists,
+//! races to create children at two depths, list segment growth and lookups.
+//!
+//! Shuttle runs every thread on one OS thread and models every atomic access as `SeqCst`: it
+//! explores interleavings, not weak-memory reorderings (those are loom's job, `verify/loom_*.rs`).
+//! Each test runs its fixed regression seeds and one fresh seed (printed); see
+//! `shuttle_common` for replaying a failure.
+#![cfg(feature = "shuttle")]
+
+mod shuttle_common;
+
+use glam::Vec3;
+use shuttle_common::{explore_all, Sched};
+use std::collections::HashSet;
+use wfic::cache::wf::Minimal;
+use wfic::cache::{
+    CacheConfig, CacheHandle, CasFailure, Inserted, IrradianceCache, LocalWrite, Locked,
+    MutexFlavour, RwLockFlavour, WaitFree,
+};
+use wfic::ic::{Record, WorkerId};
+use wfic::sync::{thread, Arc};
+
+/// The world: a 4-unit box, accuracy 1.
+fn config() -> CacheConfig {
+    CacheConfig::new(Vec3::ZERO, Vec3::splat(4.0), 1.0).unwrap()
+}
+
+/// The deepest placement of the workload's records (radius 0.35 at accuracy 1 in a 4-unit root).
+const MAX_RECORD_DEPTH: u32 = 2;
+
+/// Record `seq` of worker `worker`: a pure function of both, so any record read back can be
+/// checked. Positions cluster in two octants so that workers race to create the same children;
+/// radii place records in the root (one in four), at depth 1 or at depth 2.
+fn record_for(worker: u32, seq: u64) -> Record {
+    let h = (u64::from(worker) * 0x9e37_79b9 + seq * 0x85eb_ca6b) ^ 0x27d4_eb2f;
+    let spot = if h % 2 == 0 {
+        Vec3::splat(1.0)
+    } else {
+        Vec3::new(3.0, 1.0, 1.0)
+    };
+    let jitter = Vec3::new((h >> 8) as f32 % 7.0, (h >> 16) as f32 % 5.0, 0.0) * 0.03;
+    let radius = match (h >> 24) % 4 {
+        0 => 10.0,
+        1 => 0.8,
+        _ => 0.35,
+    };
+    let e = Vec3::new(1.0 + worker as f32, 1.0 + (seq % 7) as f32, 2.0);
+    Record::new(spot + jitter, Vec3::Z, e, radius)
+}
+
+fn genuine(r: &Record) -> bool {
+    let id = r.id();
+    let expected = record_for(id.worker().index(), id.seq());
+    r.is_intact() && r.position == expected.position && r.irradiance == expected.irradiance
+}
+
+/// One schedule: `threads` workers, each doing `ops` operations, one insert in `insert_every`, the
+/// rest lookups at positions other workers insert at. Checks racing reads, then the final state.
+fn workload<C: IrradianceCache + 'static>(cache: C, threads: u32, ops: u64, insert_every: u64) {
+    let scheme = cache.scheme();
+    let cache = Arc::new(cache);
+    let workers: Vec<_> = (0..threads)
+        .map(|t| {
+            let cache = cache.clone();
+            thread::spawn(move || {
+                let mut h = cache.handle(WorkerId::new(t));
+                let mut outcomes = Vec::new();
+                let mut found = Vec::new();
+                for i in 0..ops {
+                    if i % insert_every == 0 {
+                        let seq = outcomes.len() as u64;
+                        outcomes.push(h.insert(record_for(t, seq)).expect("valid record"));
+                    } else {
+                        let other = (t + 1 + (i as u32 % threads.max(2))) % threads;
+                        let q = record_for(other, i / insert_every);
+                        found.clear();
+                        h.valid_records(q.position, q.normal, &mut found);
+                        assert!(
+                            found.iter().all(genuine),
+                            "{scheme}: phantom or torn record"
+                        );
+                    }
+                }
+                let steps = h.stats().max_insert_steps;
+                assert!(
+                    steps <= 2 * MAX_RECORD_DEPTH,
+                    "{scheme}: an insert took {steps} steps, bound {}",
+                    2 * MAX_RECORD_DEPTH
+                );
+                (h.finish(), outcomes)
+            })
+        })
+        .collect();
+    let mut residues = Vec::new();
+    let mut stored = HashSet::new();
+    let mut discarded = 0;
+    for w in workers {
+        let (residue, outcomes) = w.join().unwrap();
+        residues.push(residue);
+        for o in outcomes {
+            match o {
+                Inserted::Stored(id) => assert!(stored.insert(id), "{scheme}: id reused"),
+                Inserted::Discarded(_) => discarded += 1,
+            }
+        }
+    }
+    let mut cache = Arc::try_unwrap(cache).ok().expect("workers joined");
+    let report = cache.end_frame(residues);
+    assert_eq!(report.workers.discarded, discarded);
+    if scheme != "wf-discard" {
+        assert_eq!(discarded, 0, "{scheme} lost a sample");
+    }
+    let snapshot = cache.snapshot();
+    assert!(
+        snapshot.iter().all(genuine),
+        "{scheme}: torn record in the final cache"
+    );
+    let ids: HashSet<_> = snapshot.iter().map(Record::id).collect();
+    assert_eq!(ids.len(), snapshot.len(), "{scheme}: duplicated record");
+    assert_eq!(ids, stored, "{scheme}: stored set");
+    let mut h = cache.handle(WorkerId::new(threads));
+    let mut found = Vec::new();
+    for id in &stored {
+        let r = record_for(id.worker().index(), id.seq());
+        found.clear();
+        h.valid_records(r.position, r.normal, &mut found);
+        assert_eq!(
+            found.iter().filter(|f| f.id() == *id).count(),
+            1,
+            "{scheme}: {id} not found once"
+        );
+    }
+}
+
+/// Fixed regression seeds, run every time beside a fresh one.
+const SEEDS: [u64; 2] = [0x5eed_0001, 0x1c_2009];
+
+#[test]
+fn shuttle_wf_adopt_random() {
+    explore_all(
+        "shuttle_wf_adopt_random",
+        "4 threads x 40 ops, 1 insert in 3",
+        Sched::Random,
+        &SEEDS,
+        1500,
+        || {
+            workload(
+                WaitFree::<Minimal>::new(config(), CasFailure::Adopt),
+                4,
+                40,
+                3,
+            )
+        },
+    );
+}
+
+#[test]
+fn shuttle_wf_adopt_pct() {
+    explore_all(
+        "shuttle_wf_adopt_pct",
+        "8 threads x 24 ops, 1 insert in 2",
+        Sched::Pct(3),
+        &SEEDS,
+        1000,
+        || {
+            workload(
+                WaitFree::<Minimal>::new(config(), CasFailure::Adopt),
+                8,
+                24,
+                2,
+            )
+        },
+    );
+}
+
+#[test]
+fn shuttle_wf_discard_random() {
+    explore_all(
+        "shuttle_wf_discard_random",
+        "4 threads x 40 ops, 1 insert in 2",
+        Sched::Random,
+        &SEEDS,
+        1000,
+        || {
+            workload(
+                WaitFree::<Minimal>::new(config(), CasFailure::Discard),
+                4,
+                40,
+                2,
+            )
+        },
+    );
+}
+
+#[test]
+fn shuttle_lck_mutex_random() {
+    explore_all(
+        "shuttle_lck_mutex_random",
+        "4 threads x 30 ops, 1 insert in 3",
+        Sched::Random,
+        &SEEDS,
+        500,
+        || workload(Locked::<MutexFlavour>::new(config()), 4, 30, 3),
+    );
+}
+
+#[test]
+fn shuttle_lck_rwlock_pct() {
+    explore_all(
+        "shuttle_lck_rwlock_pct",
+        "6 threads x 20 ops, 1 insert in 3",
+        Sched::Pct(3),
+        &SEEDS,
+        500,
+        || workload(Locked::<RwLockFlavour>::new(config()), 6, 20, 3),
+    );
+}
+
+#[test]
+fn shuttle_lw_random() {
+    explore_all(
+        "shuttle_lw_random",
+        "4 threads x 40 ops, 1 insert in 3",
+        Sched::Random,
+        &SEEDS,
+        500,
+        || workload(LocalWrite::new(config()), 4, 40, 3),
+    );
+}
+
+/// Vacuity: the `Discard` exploration does reach schedules where a race to create a child is lost.
+#[test]
+fn shuttle_wf_discard_reaches_a_lost_race() {
+    use std::sync::atomic::{AtomicU64, Ordering::Relaxed};
+    static DISCARDED: AtomicU64 = AtomicU64::new(0);
+    shuttle_common::explore(
+        "shuttle_wf_discard_reaches_a_lost_race",
+        "4 threads x 8 inserts",
+        Sched::Pct(2),
+        7,
+        300,
+        || {
+            let cache = Arc::new(WaitFree::<Minimal>::new(config(), CasFailure::Discard));
+            let ws: Vec<_> = (0..4u32)
+                .map(|t| {
+                    let c = cache.clone();
+                    thread::spawn(move || {
+                        let mut h = c.handle(WorkerId::new(t));
+                        (0..8).for_each(|i| {
+                            h.insert(record_for(t, i)).unwrap();
+                        });
+                        h.stats().discarded
+                    })
+                })
+                .collect();
+            let d: u64 = ws.into_iter().map(|w| w.join().unwrap()).sum();
+            DISCARDED.fetch_add(d, Relaxed);
+        },
+    );
+    assert!(
+        DISCARDED.load(Relaxed) > 0,
+        "no schedule discarded a sample"
+    );
+}
+
+/// A deliberately false property: "two WF `Discard` inserts racing for one child never discard".
+/// Shuttle refutes it; the failure is saved, and its replay reproduces the same failure.
+fn no_discard_ever() {
+    let cache = Arc::new(WaitFree::<Minimal>::new(config(), CasFailure::Discard));
+    let c = cache.clone();
+    let r = |x: f32| Record::new(Vec3::new(1.0 + x, 1.0, 1.0), Vec3::Z, Vec3::ONE, 0.8);
+    let t = thread::spawn(move || c.handle(WorkerId::new(1)).insert(r(0.0)).unwrap());
+    let mine = cache.handle(WorkerId::new(0)).insert(r(0.1)).unwrap();
+    let theirs = t.join().unwrap();
+    assert!(
+        matches!((mine, theirs), (Inserted::Stored(_), Inserted::Stored(_))),
+        "a sample was discarded"
+    );
+}
+
+#[test]
+fn a_failure_is_saved_and_its_replay_reproduces_it() {
+    let (test, seed) = ("demo_no_discard_ever", 11);
+    let hook = std::panic::take_hook();
+    std::panic::set_hook(Box::new(|_| {}));
+    let outcome = std::panic::catch_unwind(|| {
+        shuttle_common::explore(
+            test,
+            "2 threads, 1 insert each",
+            Sched::Random,
+            seed,
+            2000,
+            no_discard_ever,
+        )
+    });
+    std::panic::set_hook(hook);
+    assert!(
+        outcome.is_err(),
+        "shuttle did not refute the false property"
+    );
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join(format!("target/shuttle-failures/{test}-random-{seed}.txt"));
+    let saved = shuttle_common::load_failure(&path);
+    assert_eq!((saved.test.as_str(), saved.seed), (test, seed));
+    assert!(
+        saved.message.contains("a sample was discarded"),
+        "{}",
+        saved.message
+    );
+    let replayed = shuttle_common::replay_failure(&saved, no_discard_ever);
+    let replayed = replayed.expect("the replay must fail again");
+    assert!(replayed.contains("a sample was discarded"), "{replayed}");
+}
+
+/// Every failure file committed under `verify/shuttle-regressions/` is replayed. A file whose test
+/// is a real property must now pass (its bug is fixed); the demonstration file of the false
+/// property above must still reproduce its failure.
+#[test]
+fn committed_regressions_replay() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("verify/shuttle-regressions");
+    let mut replayed = 0;
+    for entry in std::fs::read_dir(&dir).expect("verify/shuttle-regressions exists") {
+        let path = entry.unwrap().path();
+        if path.extension().is_none_or(|e| e != "txt") {
+            continue;
+        }
+        let saved = shuttle_common::load_failure(&path);
+        match saved.test.as_str() {
+            "demo_no_discard_ever" => {
+                let m = shuttle_common::replay_failure(&saved, no_discard_ever);
+                assert!(
+                    m.is_some_and(|m| m.contains("a sample was discarded")),
+                    "{}",
+                    path.display()
+                );
+            }
+            other => panic!(
+                "{}: no replay registered for test `{other}`",
+                path.display()
+            ),
+        }
+        replayed += 1;
+    }
+    assert!(replayed > 0, "no regression file found");
+}
