@@ -16,4 +16,6 @@
 
 pub mod cache;
 pub mod ic;
+#[cfg(not(checker))]
+pub mod render;
 pub mod sync;
