@@ -159,10 +159,10 @@ pub struct RenderArgs {
     #[arg(long, default_value_t = 0.25)]
     pub accuracy: f32,
     /// Hemisphere rays per irradiance record.
-    #[arg(long, default_value_t = 256)]
+    #[arg(long, default_value_t = 512)]
     pub rays_per_record: u32,
     /// Light samples (shadow rays) per pixel for direct light.
-    #[arg(long, default_value_t = 4)]
+    #[arg(long, default_value_t = 8)]
     pub light_samples: u32,
     /// Seed of the per-pixel random streams.
     #[arg(long, default_value_t = 0x5eed)]
