@@ -16,11 +16,11 @@ fn main() {
     let rays: u32 = std::env::var("RAYS")
         .ok()
         .and_then(|s| s.parse().ok())
-        .unwrap_or(256);
+        .unwrap_or(RenderSettings::new(1, 1).rays_per_record);
     let acc: f32 = std::env::var("ACC")
         .ok()
         .and_then(|s| s.parse().ok())
-        .unwrap_or(0.25);
+        .unwrap_or(RenderSettings::new(1, 1).accuracy);
     let schemes: Vec<Scheme> = match std::env::var("SCHEMES") {
         Ok(s) => s
             .split(',')
@@ -66,10 +66,15 @@ fn main() {
             let (frame, _) =
                 render_with_scheme(scheme, &scene, &camera, &settings, config, threads);
             let rmse = frame.image.relative_rmse(&reference.image).unwrap();
+            let white = 1.0 / reference.image.auto_exposure();
+            let unclipped = frame
+                .image
+                .relative_rmse_below(&reference.image, white)
+                .unwrap();
             let s = &frame.stats;
             println!(
-                "  {:10} {:7.3} s  {:8} samples  rmse {:.4}  hits {}/{}  sharing {:.3}  discarded {}  {:.3e} rays/s/core",
-                s.scheme, s.seconds, s.ic_samples, rmse, s.hits, s.lookups, s.sharing, s.discarded,
+                "  {:10} {:7.3} s  {:8} samples  rmse {:.4} (unclipped pixels {:.4})  hits {}/{}  sharing {:.3}  discarded {}  {:.3e} rays/s/core",
+                s.scheme, s.seconds, s.ic_samples, rmse, unclipped, s.hits, s.lookups, s.sharing, s.discarded,
                 s.hemisphere_rays_per_second()
             );
             if std::env::var("DIFF").is_ok() {

@@ -72,21 +72,43 @@ impl Image {
         })
     }
 
-    /// The exposure tone mapping uses: maps the 99th percentile of luminance (emitters excluded by
-    /// the percentile) to 1.
+    /// [`Image::relative_rmse`] over the pixels whose reference luminance is at most
+    /// `max_luminance` only: with `1 / reference.auto_exposure()` it leaves out the pixels the
+    /// tone mapping clips (the emitters), which otherwise dominate the denominator.
+    pub fn relative_rmse_below(&self, reference: &Image, max_luminance: f32) -> Option<f64> {
+        if (self.width, self.height) != (reference.width, reference.height) {
+            return None;
+        }
+        let (mut num, mut den) = (0.0f64, 0.0f64);
+        for (a, b) in self.pixels.iter().zip(&reference.pixels) {
+            if super::scene::luminance(*b) <= max_luminance {
+                num += f64::from((*a - *b).length_squared());
+                den += f64::from(b.length_squared());
+            }
+        }
+        Some(if den > 0.0 {
+            (num / den).sqrt()
+        } else {
+            num.sqrt()
+        })
+    }
+
+    /// The exposure tone mapping uses: Reinhard's key, mapping the log-average luminance to
+    /// 0.22, so large bright emitters in view do not darken the rest of the picture.
     pub fn auto_exposure(&self) -> f32 {
-        let mut lum: Vec<f32> = self
-            .pixels
-            .iter()
-            .map(|&p| super::scene::luminance(p))
-            .filter(|l| l.is_finite() && *l > 0.0)
-            .collect();
-        if lum.is_empty() {
+        let (mut sum, mut n) = (0.0f64, 0usize);
+        for &p in &self.pixels {
+            let l = super::scene::luminance(p);
+            if l.is_finite() && l > 0.0 {
+                sum += f64::from(l).ln();
+                n += 1;
+            }
+        }
+        if n == 0 {
             return 1.0;
         }
-        let k = ((lum.len() - 1) as f32 * 0.99) as usize;
-        let (_, p, _) = lum.select_nth_unstable_by(k, f32::total_cmp);
-        1.0 / p.max(1e-12)
+        let key = (sum / n as f64).exp() as f32;
+        0.22 / key.max(1e-12)
     }
 
     /// 8-bit sRGB after scaling by `exposure` and clamping, row-major RGB.
