@@ -23,7 +23,16 @@
 //!   `E + (n_i x n) . grad_r` ([`crate::ic::extrapolate`]): `d/dn` of `int L max(0, n . w) dw` is
 //!   `int L (n_i x w) dw` and `n_i x w = sin(theta) v(phi)`.
 //! * translational: Ward & Heckbert's cell-boundary form, with `min(r)` of the two cells on each
-//!   side of a boundary (`u_k` at the sector's centre, `v_k-` normal to its lower edge).
+//!   side of a boundary (`u_k` at the sector's centre, `v_k-` normal to its lower edge):
+//!   `grad_t = sum_k [ u_k 2pi/N sum_{j>=1} sin(t_j-) cos^2(t_j-) / min(r) (L_jk - L_j-1,k)
+//!                   + v_k- sum_j (sin(t_j+) - sin(t_j-)) / min(r) (L_jk - L_j,k-1) ]`.
+//!   The ring term is Ward & Heckbert's. The sector term's coefficient is derived here from the
+//!   projected solid angle: a sector edge at distance `r` moves by `dphi = dx / (r sin t)` and the
+//!   cell's projected solid angle density is `cos t sin t dt dphi`, so the edge sweeps
+//!   `dx / r * integral cos t dt = dx (sin t+ - sin t-) / r`. The form usually quoted,
+//!   `(cos t- - cos t+) / (sin t_c r)`, weights grazing rings by an extra `1 / cos t`; against
+//!   central differences in front of a wall it overestimated the gradient 1.4-2x, the derived
+//!   form is within 5% (`translational_gradient_matches_finite_differences_next_to_a_wall`).
 
 use super::sampler::Rng;
 use super::scene::Scene;
@@ -222,8 +231,7 @@ pub fn sample_irradiance(
             let r = dist[cell].min(dist[j * nn + prev]);
             if r.is_finite() {
                 let (lo, hi) = (theta_minus(j), theta_minus(j + 1));
-                let sin_c = u_c.sqrt();
-                let coef = (lo.cos() - hi.cos()) / (sin_c * r);
+                let coef = (hi.sin() - lo.sin()) / r;
                 add(&mut grad_t, v_lo, (l - radiance[j * nn + prev]) * coef);
             }
         }
@@ -271,33 +279,90 @@ mod tests {
     }
 
     #[test]
-    fn gradients_predict_the_change_of_irradiance() {
-        // On the Cornell floor at x = 0.3 (between the blocks' shadows), moving 2 cm towards the
-        // red wall lowers the green irradiance (the green wall recedes); tilting the normal towards
-        // the red wall raises the red irradiance. Both predicted by the gradients within 30%.
+    fn rotational_gradient_predicts_a_tilt() {
+        // On the Cornell box's back wall, 8 cm from the green wall (x = 0): tilting the normal
+        // towards the green wall raises the green irradiance, as the rotational gradient says.
         let scene = scenes::cornell().unwrap();
-        let x = Vec3::new(0.3, 0.0, 0.15);
-        let n = Vec3::Y;
-        let here = estimate(&scene, x, n, 16);
-        let step = Vec3::new(0.02, 0.0, 0.0);
-        let there = estimate(&scene, x + step, n, 16);
-        for c in [1, 2] {
-            let measured = there.irradiance[c] - here.irradiance[c];
-            let predicted = step.dot(here.grad_t[c]);
-            assert!(measured < 0.0, "channel {c}: {measured}");
-            assert!(
-                (predicted - measured).abs() < 0.3 * measured.abs(),
-                "translational, channel {c}: predicted {predicted}, measured {measured}"
-            );
-        }
-        let tilt = Vec3::new(0.1, 1.0, 0.0).normalize();
-        let tilted = estimate(&scene, x, tilt, 16);
-        let measured = tilted.irradiance.x - here.irradiance.x;
-        let predicted = n.cross(tilt).dot(here.grad_r[0]);
-        assert!(measured > 0.0, "tilting towards the red wall: {measured}");
+        let x = Vec3::new(0.08, 0.4, 0.5591);
+        let n = -Vec3::Z;
+        let seeds = 8;
+        let here = estimate(&scene, x, n, seeds);
+        let tilt = Vec3::new(-0.1, 0.0, -1.0).normalize();
+        let tilted = estimate(&scene, x, tilt, seeds);
+        let measured = tilted.irradiance.y - here.irradiance.y;
+        let predicted = n.cross(tilt).dot(here.grad_r[1]);
+        assert!(measured > 0.0, "tilting towards the green wall: {measured}");
         assert!(
             (predicted - measured).abs() < 0.3 * measured.abs(),
             "rotational: predicted {predicted}, measured {measured}"
         );
+    }
+
+    /// A floor at y = 0 and a red wall of height `h` at x = 1 (infinite in z), lit by a panel
+    /// above the floor at x < 0.
+    fn wall_scene(h: f32) -> Scene {
+        use crate::render::camera::{Camera, Orbit};
+        use crate::render::scene::{Material, SceneBuilder};
+        let mut b = SceneBuilder::new();
+        let white = b.material(Material::diffuse(Vec3::splat(0.5)));
+        let red = b.material(Material::diffuse(Vec3::new(0.8, 0.0, 0.0)));
+        let light = b.material(Material::light(Vec3::splat(10.0)));
+        let big = 50.0;
+        let v = Vec3::new;
+        b.quad(
+            v(-big, 0.0, -big),
+            v(-big, 0.0, big),
+            v(big, 0.0, big),
+            v(big, 0.0, -big),
+            white,
+        );
+        b.quad(
+            v(1.0, 0.0, -big),
+            v(1.0, h, -big),
+            v(1.0, h, big),
+            v(1.0, 0.0, big),
+            red,
+        );
+        b.quad(
+            v(-1.0, 3.0, -1.0),
+            v(0.0, 3.0, -1.0),
+            v(0.0, 3.0, 1.0),
+            v(-1.0, 3.0, 1.0),
+            light,
+        );
+        let camera = Camera::look_at(Vec3::ZERO, Vec3::X, Vec3::Y, 40.0);
+        let orbit = Orbit {
+            center: Vec3::ZERO,
+            radius: 1.0,
+            look_height: 0.0,
+            vfov_degrees: 40.0,
+        };
+        b.build("wall", camera, orbit).unwrap()
+    }
+
+    #[test]
+    fn translational_gradient_matches_finite_differences_next_to_a_wall() {
+        // Central differences of E against the gradient on the floor in front of the red wall,
+        // for a tall and a low wall (the wall's top edge is the boundary that moves).
+        for (h, x) in [(1.0f32, 0.5f32), (0.3, 0.5), (0.3, 0.8)] {
+            let scene = wall_scene(h);
+            let dx = 0.05;
+            let seeds = 8;
+            let at = |x: f32| estimate(&scene, Vec3::new(x, 0.0, 0.0), Vec3::Y, seeds);
+            let here = at(x);
+            let measured = (at(x + dx).irradiance.x - at(x - dx).irradiance.x) / (2.0 * dx);
+            let predicted = here.grad_t[0].x;
+            assert!(measured > 0.0);
+            assert!(
+                (predicted - measured).abs() < 0.25 * measured,
+                "h {h}, x {x}: predicted {predicted}, measured {measured}"
+            );
+            // Symmetric along z: no gradient across.
+            assert!(
+                here.grad_t[0].z.abs() < 0.05 * measured,
+                "{}",
+                here.grad_t[0]
+            );
+        }
     }
 }
