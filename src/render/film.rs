@@ -73,8 +73,8 @@ impl Image {
     }
 
     /// [`Image::relative_rmse`] over the pixels whose reference luminance is at most
-    /// `max_luminance` only: with `1 / reference.auto_exposure()` it leaves out the pixels the
-    /// tone mapping clips (the emitters), which otherwise dominate the denominator.
+    /// `max_luminance` only: with [`crate::render::Scene::min_emitter_luminance`] it leaves out the
+    /// pixels that see an emitter, which otherwise dominate the denominator.
     pub fn relative_rmse_below(&self, reference: &Image, max_luminance: f32) -> Option<f64> {
         if (self.width, self.height) != (reference.width, reference.height) {
             return None;

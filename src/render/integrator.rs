@@ -112,8 +112,8 @@ fn frame(n: Vec3) -> (Vec3, Vec3) {
     (t, n.cross(t))
 }
 
-/// Irradiance at `x` (unit facing normal `n`) from the scene's lights: `samples` points on the
-/// lights, one shadow ray each. `eps` is the ray offset.
+/// Irradiance at `x` (unit facing normal `n`) from the scene's lights: `samples` stratified points
+/// on the lights, one shadow ray each. `eps` is the ray offset.
 pub fn direct_irradiance(
     scene: &Scene,
     x: Vec3,
@@ -125,8 +125,16 @@ pub fn direct_irradiance(
 ) -> Vec3 {
     let origin = x + n * eps;
     let mut sum = Vec3::ZERO;
-    for _ in 0..samples {
-        let s = scene.sample_light(rng);
+    // Stratified: sample i takes the i-th of `samples` strata of the light choice and a cell of a
+    // g x g grid on the light (g = ceil(sqrt(samples))), jittered.
+    let g = (samples as f32).sqrt().ceil().max(1.0) as u32;
+    for i in 0..samples {
+        let u = [
+            (i as f32 + rng.next_f32()) / samples as f32,
+            ((i % g) as f32 + rng.next_f32()) / g as f32,
+            (((i / g) % g) as f32 + rng.next_f32()) / g as f32,
+        ];
+        let s = scene.light_at(u.map(|c| c.min(1.0 - f32::EPSILON)));
         let d = s.point - origin;
         let dist2 = d.length_squared();
         if dist2 <= 0.0 {

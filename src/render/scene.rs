@@ -308,6 +308,15 @@ impl Scene {
         self.lights.len()
     }
 
+    /// The smallest luminance an emitter has: a diffuse surface lit by the scene reflects less than
+    /// this (its albedo is below 1), so pixels above it see an emitter.
+    pub fn min_emitter_luminance(&self) -> f32 {
+        self.lights
+            .iter()
+            .map(|l| luminance(l.emission))
+            .fold(f32::INFINITY, f32::min)
+    }
+
     /// Total area of the emissive triangles.
     pub fn light_area(&self) -> f32 {
         self.lights.iter().map(|l| l.area).sum()
@@ -374,13 +383,21 @@ impl Scene {
     /// A point on a light, the light chosen by power and the point uniformly on it.
     #[inline]
     pub fn sample_light(&self, rng: &mut Rng) -> LightSample {
-        let u = f64::from(rng.next_f32());
+        let u = [rng.next_f32(), rng.next_f32(), rng.next_f32()];
+        self.light_at(u)
+    }
+
+    /// The light point for the uniform numbers `u` in `[0, 1)^3`: `u[0]` chooses the light (by
+    /// power), `u[1]` and `u[2]` the point on it (uniform in area). Stratifying `u` stratifies the
+    /// samples.
+    #[inline]
+    pub fn light_at(&self, u: [f32; 3]) -> LightSample {
         let i = self
             .light_cdf
-            .partition_point(|&c| c <= u)
+            .partition_point(|&c| c <= f64::from(u[0]))
             .min(self.lights.len() - 1);
         let l = &self.lights[i];
-        let (s, t) = (rng.next_f32().sqrt(), rng.next_f32());
+        let (s, t) = (u[1].sqrt(), u[2]);
         let [a, b, c] = l.corners;
         LightSample {
             point: a * (1.0 - s) + b * (s * (1.0 - t)) + c * (s * t),
