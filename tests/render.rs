@@ -397,3 +397,39 @@ fn every_scene_and_scheme_is_within_five_percent_of_the_reference() {
         }
     }
 }
+
+#[test]
+fn an_orbit_reuses_the_cache_and_every_frame_is_lit() {
+    for name in ["cornell", "office"] {
+        let scene = scenes::by_name(name).unwrap().unwrap();
+        let settings = small(24);
+        let mut cache = WaitFree::<wfic::cache::wf::Minimal>::new(
+            settings.cache_config(&scene).unwrap(),
+            CasFailure::Adopt,
+        );
+        let mut samples = Vec::new();
+        for frame in 0..8 {
+            let camera = Camera::orbit(&scene, frame as f32 / 8.0);
+            let out = render::render_frame(&scene, &camera, &settings, &mut cache, 2);
+            assert!(
+                out.image.mean().max_element() > 0.0,
+                "{name} frame {frame} is black"
+            );
+            samples.push(out.stats.ic_samples);
+        }
+        // Camera::orbit closes on itself: frame 8 would be frame 0, which the cache now knows.
+        let again = render::render_frame(
+            &scene,
+            &Camera::orbit(&scene, 1.0),
+            &settings,
+            &mut cache,
+            2,
+        );
+        assert!(
+            again.stats.ic_samples * 4 < samples[0].max(4),
+            "{name}: {} new samples against {} in the first frame",
+            again.stats.ic_samples,
+            samples[0]
+        );
+    }
+}

@@ -173,6 +173,10 @@ pub struct RenderArgs {
     /// Point the camera looks at `x,y,z` (default: the scene's).
     #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
     pub target: Option<Vec3>,
+    /// Use the scene's orbit camera at this time (turns: 0 and 1 are the same position) instead
+    /// of its default camera; `--eye`/`--target` still override.
+    #[arg(long, value_name = "T")]
+    pub orbit: Option<f32>,
     /// Tone-mapped PNG output.
     #[arg(long, default_value = "render.png")]
     pub out: PathBuf,
@@ -241,6 +245,14 @@ pub fn load_scene(args: &RenderArgs) -> Result<Scene, RenderError> {
             })?
             .map_err(|e| RenderError::Usage(e.to_string()))?,
     };
+    if let Some(t) = args.orbit {
+        if !t.is_finite() {
+            return Err(RenderError::Usage(format!(
+                "--orbit {t} is not a finite time"
+            )));
+        }
+        scene.set_camera(Camera::orbit(&scene, t));
+    }
     if args.eye.is_some() || args.target.is_some() {
         let mut camera = scene.camera();
         camera.eye = args.eye.unwrap_or(camera.eye);

@@ -183,9 +183,10 @@ pub fn cornell() -> Result<Scene, SceneError> {
         39.3077,
     );
     let orbit = Orbit {
-        center: mm(278.0, 300.0, 280.0),
+        // Above the tall block (330 mm), so no position of the circle is inside it.
+        center: mm(278.0, 420.0, 280.0),
         radius: 0.17,
-        look_height: 0.2,
+        look_height: 0.15,
         vfov_degrees: 70.0,
     };
     b.build("cornell", camera, orbit)
