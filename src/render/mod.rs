@@ -14,12 +14,13 @@
 //! * [`cli`] — the `wfic render` subcommand.
 //!
 //! ```no_run
-//! use wfic::cache::{CasFailure, WaitFree};
+//! use wfic::cache::{wf::Minimal, CasFailure, WaitFree};
 //! use wfic::render::{self, scenes, Camera, RenderSettings};
 //!
 //! let scene = scenes::cornell().unwrap();
 //! let settings = RenderSettings::new(128, 128);
-//! let mut cache = WaitFree::new(settings.cache_config(&scene).unwrap(), CasFailure::Adopt);
+//! let config = settings.cache_config(&scene).unwrap();
+//! let mut cache = WaitFree::<Minimal>::new(config, CasFailure::Adopt);
 //! for frame in 0..4 {
 //!     let camera = Camera::orbit(&scene, frame as f32 / 4.0);
 //!     let out = render::render_frame(&scene, &camera, &settings, &mut cache, 2);
