@@ -125,16 +125,36 @@ pub fn direct_irradiance(
 ) -> Vec3 {
     let origin = x + n * eps;
     let mut sum = Vec3::ZERO;
-    // Stratified: sample i takes the i-th of `samples` strata of the light choice and a cell of a
-    // g x g grid on the light (g = ceil(sqrt(samples))), jittered.
-    let g = (samples as f32).sqrt().ceil().max(1.0) as u32;
+    // Stratified: sample i takes the i-th of `samples` strata of the light choice, and a cell of a
+    // g x g grid on the light (g = ceil(sqrt(samples)) <= 8) drawn from a random permutation of
+    // the cells, so the cell is independent of the light choice (a fixed mapping would tie
+    // lights to parts of the grid and bias the estimate). Above 64 samples the position is not
+    // stratified.
+    let g = (samples as f32).sqrt().ceil().max(1.0) as usize;
+    let mut cells = [0u8; 64];
+    let stratify = g * g <= cells.len();
+    if stratify {
+        for (k, c) in cells.iter_mut().enumerate().take(g * g) {
+            *c = k as u8;
+        }
+        for k in (1..g * g).rev() {
+            let j = (rng.next_u64() % (k as u64 + 1)) as usize;
+            cells.swap(k, j);
+        }
+    }
     for i in 0..samples {
-        let u = [
-            (i as f32 + rng.next_f32()) / samples as f32,
-            ((i % g) as f32 + rng.next_f32()) / g as f32,
-            (((i / g) % g) as f32 + rng.next_f32()) / g as f32,
-        ];
-        let s = scene.light_at(u.map(|c| c.min(1.0 - f32::EPSILON)));
+        let (r1, r2) = (rng.next_f32(), rng.next_f32());
+        let (u1, u2) = if stratify {
+            let c = usize::from(cells[i as usize]);
+            (
+                ((c % g) as f32 + r1) / g as f32,
+                ((c / g) as f32 + r2) / g as f32,
+            )
+        } else {
+            (r1, r2)
+        };
+        let u0 = (i as f32 + rng.next_f32()) / samples as f32;
+        let s = scene.light_at([u0, u1, u2].map(|c| c.min(1.0 - f32::EPSILON)));
         let d = s.point - origin;
         let dist2 = d.length_squared();
         if dist2 <= 0.0 {
@@ -372,5 +392,99 @@ mod tests {
                 here.grad_t[0]
             );
         }
+    }
+
+    #[test]
+    fn direct_irradiance_matches_the_form_factor_of_a_square() {
+        use crate::render::camera::{Camera, Orbit};
+        use crate::render::scene::{Material, SceneBuilder};
+        // A 4 x 4 emitter of radiance 1 one unit above the point, centred: four 2 x 2 corner
+        // rectangles, each with the parallel-rectangle form factor
+        // F = (1 / 2 pi) [X / sqrt(1 + X^2) atan(Y / sqrt(1 + X^2)) + (X <-> Y)], X = Y = 2;
+        // E = pi * L * 4F.
+        let mut b = SceneBuilder::new();
+        let light = b.material(Material::light(Vec3::ONE));
+        let floor = b.material(Material::diffuse(Vec3::splat(0.5)));
+        let v = Vec3::new;
+        let (a, big) = (2.0f32, 100.0);
+        b.quad(
+            v(-a, 1.0, -a),
+            v(a, 1.0, -a),
+            v(a, 1.0, a),
+            v(-a, 1.0, a),
+            light,
+        );
+        b.quad(
+            v(-big, 0.0, -big),
+            v(-big, 0.0, big),
+            v(big, 0.0, big),
+            v(big, 0.0, -big),
+            floor,
+        );
+        let orbit = Orbit {
+            center: Vec3::ZERO,
+            radius: 1.0,
+            look_height: 0.0,
+            vfov_degrees: 40.0,
+        };
+        let scene = b
+            .build(
+                "square",
+                Camera::look_at(Vec3::Y * 0.5, Vec3::X, Vec3::Y, 40.0),
+                orbit,
+            )
+            .unwrap();
+        let x = a / (1.0 + a * a).sqrt();
+        let corner = (2.0 * x * (a / (1.0 + a * a).sqrt()).atan()) / (2.0 * PI);
+        let expected = PI * 4.0 * corner;
+        let mut rng = Rng::new(3);
+        let mut rays = RayCounts::default();
+        // Averaged over many pixels, both the stratified path (up to 64 samples) and the plain
+        // one (more) are unbiased.
+        for samples in [1, 2, 8, 64, 100] {
+            let calls = 65_536 / samples;
+            let before = rays.shadow;
+            let mean = (0..calls)
+                .map(|_| {
+                    let e = direct_irradiance(
+                        &scene,
+                        Vec3::ZERO,
+                        Vec3::Y,
+                        samples,
+                        1e-4,
+                        &mut rng,
+                        &mut rays,
+                    );
+                    e.x
+                })
+                .sum::<f32>()
+                / calls as f32;
+            assert!(
+                (mean - expected).abs() < 0.015 * expected,
+                "{samples} samples: {mean} vs {expected}"
+            );
+            assert_eq!(rays.shadow - before, u64::from(calls * samples));
+        }
+        // Facing away from the emitter: nothing.
+        let e = direct_irradiance(&scene, Vec3::ZERO, -Vec3::Y, 64, 1e-4, &mut rng, &mut rays);
+        assert_eq!(e, Vec3::ZERO);
+        // Just under the emitter looking down: every hemisphere ray hits the floor at distance
+        // 1 / cos(theta), and the mean of cos(theta) under cosine-weighted sampling is 2/3, so
+        // the harmonic mean distance is 3/2.
+        let s = sample_irradiance(
+            &scene,
+            Vec3::new(0.0, 0.999, 0.0),
+            -Vec3::Y,
+            Strata::for_rays(1024),
+            1e-4,
+            &mut rng,
+            &mut rays,
+        );
+        assert!(
+            (s.harmonic_mean - 1.5 * 0.999).abs() < 0.02,
+            "{}",
+            s.harmonic_mean
+        );
+        assert!(s.irradiance.x > 0.0);
     }
 }
