@@ -166,6 +166,18 @@ fn built_in_scenes_have_the_documented_sizes() {
     );
     assert!(sponza.diagonal() > 10.0 * cornell.diagonal());
     assert!(scenes::by_name("nope").is_none());
+    // Every emitter faces into its room (towards the centre of the bounds).
+    for scene in [&cornell, &desk, &office, &conference, &sponza] {
+        let (lo, hi) = scene.bounds();
+        let centre = (lo + hi) * 0.5;
+        for (at, normal) in scene.emitters() {
+            assert!(
+                (centre - at).dot(normal) > 0.0,
+                "{}: emitter at {at} faces {normal}, away from the room",
+                scene.name()
+            );
+        }
+    }
 }
 
 fn temp_dir(tag: &str) -> PathBuf {

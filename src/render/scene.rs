@@ -317,6 +317,13 @@ impl Scene {
             .fold(f32::INFINITY, f32::min)
     }
 
+    /// Each emissive triangle's centroid and emitting (unit) normal.
+    pub fn emitters(&self) -> impl Iterator<Item = (Vec3, Vec3)> + '_ {
+        self.lights
+            .iter()
+            .map(|l| ((l.corners[0] + l.corners[1] + l.corners[2]) / 3.0, l.normal))
+    }
+
     /// Total area of the emissive triangles.
     pub fn light_area(&self) -> f32 {
         self.lights.iter().map(|l| l.area).sum()

@@ -508,13 +508,13 @@ pub fn desk() -> Result<Scene, SceneError> {
         48,
         fabric,
     );
-    // Daylight through a window in the right wall: an emitter facing into the room (-x).
+    // Daylight through a window in the right wall: an emitter wound to face into the room (-x).
     let wx = 4.0 - 0.005;
     b.quad(
         v(wx, 1.0, 0.8),
-        v(wx, 2.2, 0.8),
-        v(wx, 2.2, 2.2),
         v(wx, 1.0, 2.2),
+        v(wx, 2.2, 2.2),
+        v(wx, 2.2, 0.8),
         window,
     );
     // Office chair in front of the desk.
