@@ -47,8 +47,19 @@ mod app {
                 .accuracy(acc);
             let config = settings.cache_config(&scene).unwrap();
             let camera = scene.camera();
-            let (reference, _) =
-                render_with_scheme(Scheme::None, &scene, &camera, &settings, config, threads);
+            // REF_RAYS: a reference with more rays per estimate (less noise of its own).
+            let ref_settings = match std::env::var("REF_RAYS").ok().and_then(|s| s.parse().ok()) {
+                Some(r) => settings.clone().rays_per_record(r),
+                None => settings.clone(),
+            };
+            let (reference, _) = render_with_scheme(
+                Scheme::None,
+                &scene,
+                &camera,
+                &ref_settings,
+                config,
+                threads,
+            );
             println!(
                 "  none       {:7.3} s  {:8} samples  {:.3e} hemisphere rays/s/core",
                 reference.stats.seconds,
