@@ -419,16 +419,12 @@ fn an_orbit_reuses_the_cache_and_every_frame_is_lit() {
             settings.cache_config(&scene).unwrap(),
             CasFailure::Adopt,
         );
-        let mut samples = Vec::new();
-        for frame in 0..8 {
-            let camera = Camera::orbit(&scene, frame as f32 / 8.0);
-            let out = render::render_frame(&scene, &camera, &settings, &mut cache, 2);
-            assert!(
-                out.image.mean().max_element() > 0.0,
-                "{name} frame {frame} is black"
-            );
-            samples.push(out.stats.ic_samples);
-        }
+        let mut lit = Vec::new();
+        let stats = render::render_orbit(&scene, &settings, &mut cache, 2, 8, |_, frame| {
+            lit.push(frame.image.mean().max_element() > 0.0);
+        });
+        assert_eq!(lit, vec![true; 8], "{name}: a black orbit frame");
+        let samples: Vec<u64> = stats.iter().map(|s| s.ic_samples).collect();
         // Camera::orbit closes on itself: frame 8 would be frame 0, which the cache now knows.
         let again = render::render_frame(
             &scene,

@@ -292,4 +292,18 @@ mod tests {
         a.set(0, 0, Vec3::splat(0.5));
         assert_eq!(a.to_srgb8(1.0)[0], 188);
     }
+
+    #[test]
+    fn overlay_marks_the_records() {
+        let mut a = Image::new(8, 8);
+        a.pixels.iter_mut().for_each(|p| *p = Vec3::splat(0.5));
+        let plain = a.overlay(1.0, &[]);
+        let marked = a.overlay(1.0, &[(Vec2::new(4.5, 2.5), Vec3::new(1.0, 0.0, 0.0))]);
+        let at = |rgb: &[u8], x: usize, y: usize| [rgb[(y * 8 + x) * 3], rgb[(y * 8 + x) * 3 + 1]];
+        assert_eq!(at(&marked, 4, 2), [255, 0]);
+        assert_eq!(at(&marked, 5, 3), [255, 0], "a 3 x 3 dot");
+        assert_eq!(at(&marked, 0, 7), at(&plain, 0, 7));
+        // The render under the dots is darkened, so the dots stand out.
+        assert!(plain[0] < a.to_srgb8(1.0)[0]);
+    }
 }

@@ -44,7 +44,7 @@ pub mod scenes;
 
 pub use camera::{Camera, Orbit};
 pub use film::Image;
-pub use parallel::{render_frame, render_reference, FrameResult, FrameStats};
+pub use parallel::{render_frame, render_orbit, render_reference, FrameResult, FrameStats};
 pub use scene::{Material, Scene, SceneBuilder, SceneError};
 
 use crate::cache::{CacheConfig, ConfigError};

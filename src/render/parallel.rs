@@ -452,3 +452,24 @@ pub fn render_reference(
     };
     FrameResult { image, stats }
 }
+
+/// Renders `frames` frames of the scene's orbit ([`Camera::orbit`] at `i / frames` turns) with one
+/// cache that keeps its records from frame to frame (the paper's §4.2 walkthroughs), calling
+/// `each(i, &frame)` after each frame; returns the frames' statistics.
+pub fn render_orbit<C: IrradianceCache>(
+    scene: &Scene,
+    settings: &RenderSettings,
+    cache: &mut C,
+    threads: usize,
+    frames: usize,
+    mut each: impl FnMut(usize, &FrameResult),
+) -> Vec<FrameStats> {
+    (0..frames)
+        .map(|i| {
+            let camera = Camera::orbit(scene, i as f32 / frames.max(1) as f32);
+            let out = render_frame(scene, &camera, settings, cache, threads);
+            each(i, &out);
+            out.stats
+        })
+        .collect()
+}
