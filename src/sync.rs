@@ -43,6 +43,14 @@ mod imp {
 }
 
 pub use imp::*;
+
+/// Primitives the model checkers must *not* see: std's, whatever the feature. Only for
+/// instrumentation that watches the checked code without taking part in it (the linearizability
+/// recorder's clock): under loom or shuttle these add no happens-before edge and no schedule point,
+/// so they cannot hide a bug. Never use them in the caches.
+pub mod unchecked {
+    pub use std::sync::atomic::{AtomicU64, Ordering};
+}
 pub use std::sync::{LockResult, PoisonError, TryLockError};
 
 /// A `std::cell::UnsafeCell` with loom's API shape, used where loom itself is not.

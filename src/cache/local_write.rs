@@ -8,7 +8,7 @@
 //! the cache shared (`&self`), the global octree is only reachable through that shared borrow, and
 //! merging needs `&mut self`, which cannot coexist with a live handle:
 //!
-//! ```compile_fail
+//! ```compile_fail,E0502
 //! use wfic::cache::{CacheConfig, CacheHandle, IrradianceCache, LocalWrite};
 //! use wfic::ic::WorkerId;
 //! use glam::Vec3;
@@ -79,7 +79,7 @@ impl IrradianceCache for LocalWrite {
         LwHandle {
             global: &self.global,
             local: Octree::new(*self.global.config()),
-            core: HandleCore::new(worker),
+            core: HandleCore::new(worker, self.stats.frames),
         }
     }
 

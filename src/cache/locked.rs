@@ -174,7 +174,7 @@ impl<F: LockFlavour> IrradianceCache for Locked<F> {
     fn handle(&self, worker: WorkerId) -> LckHandle<'_, F> {
         LckHandle {
             cache: self,
-            core: HandleCore::new(worker),
+            core: HandleCore::new(worker, self.stats.frames),
         }
     }
 
@@ -251,5 +251,65 @@ impl<F: LockFlavour> CacheHandle for LckHandle<'_, F> {
 
     fn finish(self) -> WorkerStats {
         self.core.stats
+    }
+}
+
+#[cfg(all(test, not(checker)))]
+mod tests {
+    use super::*;
+    use crate::ic::WorkerId;
+
+    /// A panic *inside* the critical section poisons the lock; both flavours recover the guard and
+    /// the cache keeps its records and keeps working.
+    fn poisoned<F: LockFlavour>() {
+        let config = CacheConfig::new(Vec3::ZERO, Vec3::splat(4.0), 0.5).unwrap();
+        let cache = Locked::<F>::new(config);
+        let mut h = cache.handle(WorkerId::new(0));
+        h.insert(Record::new(Vec3::ONE, Vec3::Z, Vec3::ONE, 1.0))
+            .unwrap();
+        let hook = std::panic::take_hook();
+        std::panic::set_hook(Box::new(|_| {}));
+        let died = std::thread::scope(|s| {
+            s.spawn(|| {
+                let _guard = cache.tree.write();
+                panic!("dies holding the lock");
+            })
+            .join()
+            .is_err()
+        });
+        std::panic::set_hook(hook);
+        assert!(died);
+        assert!(h.lookup(Vec3::ONE, Vec3::Z).is_some());
+        h.insert(Record::new(Vec3::splat(2.0), Vec3::Z, Vec3::ONE, 1.0))
+            .unwrap();
+        assert_eq!(h.lookup(Vec3::splat(2.0), Vec3::Z).unwrap().records, 1);
+        assert_eq!(h.stats().stored, 2);
+    }
+
+    #[test]
+    fn mutex_recovers_from_poisoning() {
+        poisoned::<MutexFlavour>();
+    }
+
+    #[test]
+    fn rwlock_recovers_from_poisoning() {
+        poisoned::<RwLockFlavour>();
+    }
+
+    #[test]
+    fn contended_acquisitions_are_timed() {
+        let mut wait = Duration::ZERO;
+        let g: u32 = acquire(&mut wait, || Some(1), || 2);
+        assert_eq!((g, wait), (1, Duration::ZERO));
+        let g: u32 = acquire(
+            &mut wait,
+            || None,
+            || {
+                std::thread::sleep(Duration::from_millis(5));
+                2
+            },
+        );
+        assert_eq!(g, 2);
+        assert!(wait >= Duration::from_millis(5));
     }
 }

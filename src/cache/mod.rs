@@ -21,7 +21,7 @@ mod sequential;
 pub mod wf;
 
 pub use local_write::{LocalWrite, LwHandle};
-pub use locked::{LckHandle, Locked, MutexFlavour, RwLockFlavour};
+pub use locked::{LckHandle, LockFlavour, Locked, MutexFlavour, RwLockFlavour};
 pub use oracle::BruteForce;
 pub use sequential::{Octree, SeqHandle, Sequential};
 pub use wf::{CasFailure, WaitFree, WfHandle};
@@ -229,8 +229,8 @@ pub trait IrradianceCache: Send + Sync {
     /// The cache's configuration.
     fn config(&self) -> &CacheConfig;
 
-    /// A handle for `worker`. Use each worker number for one live handle at a time (record ids
-    /// are unique per worker number).
+    /// A handle for `worker` in the current frame. Use each worker number for one handle per
+    /// frame: record ids are made of the worker number, the frame number and a count per handle.
     fn handle(&self, worker: WorkerId) -> Self::Handle<'_>;
 
     /// Closes a frame with what its handles left: sums their counters and, for LW, merges the
@@ -275,14 +275,16 @@ pub trait CacheHandle {
 #[derive(Clone, Debug)]
 pub(crate) struct HandleCore {
     pub worker: WorkerId,
+    pub frame: u64,
     pub next_seq: u64,
     pub stats: WorkerStats,
 }
 
 impl HandleCore {
-    pub fn new(worker: WorkerId) -> Self {
+    pub fn new(worker: WorkerId, frame: u64) -> Self {
         Self {
             worker,
+            frame,
             next_seq: 0,
             stats: WorkerStats::default(),
         }
@@ -299,7 +301,7 @@ impl HandleCore {
             self.stats.rejected += 1;
             return Err(e);
         }
-        let id = RecordId::new(self.worker, self.next_seq);
+        let id = RecordId::new(self.worker, self.frame, self.next_seq);
         self.next_seq += 1;
         record.seal(id);
         self.stats.inserts += 1;

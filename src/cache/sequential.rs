@@ -183,7 +183,7 @@ impl IrradianceCache for Sequential {
             // A worker that panicked with the handle poisons the lock; the octree is whole at
             // every unwind point, so the next worker carries on with it.
             tree: unpoison(self.tree.lock()),
-            core: HandleCore::new(worker),
+            core: HandleCore::new(worker, self.stats.frames),
         }
     }
 

@@ -295,9 +295,9 @@ mod tests {
     #[test]
     fn foreign_records_are_counted() {
         let mut mine = rec(Vec3::ZERO, 1.0, 1.0);
-        mine.seal(RecordId::new(WorkerId::new(0), 0));
+        mine.seal(RecordId::new(WorkerId::new(0), 0, 0));
         let mut theirs = rec(Vec3::X * 0.1, 1.0, 1.0);
-        theirs.seal(RecordId::new(WorkerId::new(1), 0));
+        theirs.seal(RecordId::new(WorkerId::new(1), 0, 0));
         let mut acc = Accumulator::new(Vec3::ZERO, Vec3::Z, 0.5, Some(WorkerId::new(0)));
         acc.add(&mine);
         acc.add(&theirs);

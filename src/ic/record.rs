@@ -5,15 +5,15 @@ use std::fmt;
 
 /// The rendering thread that computed a record or asks a question of a cache.
 ///
-/// Invariant: fits in 24 bits (it is packed into a [`RecordId`]).
+/// Invariant: fits in 16 bits (it is packed into a [`RecordId`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub struct WorkerId(u32);
 
 impl WorkerId {
     /// The largest worker number a [`RecordId`] can carry.
-    pub const MAX: u32 = (1 << 24) - 1;
+    pub const MAX: u32 = (1 << 16) - 1;
 
-    /// Worker number `n`, reduced modulo 2^24 so the invariant holds for any input.
+    /// Worker number `n`, reduced modulo 2^16 so the invariant holds for any input.
     pub const fn new(n: u32) -> Self {
         Self(n & Self::MAX)
     }
@@ -30,28 +30,32 @@ impl fmt::Display for WorkerId {
     }
 }
 
-/// A record's identity: the worker that inserted it (top 24 bits) and that worker's running count
-/// of inserts (low 40 bits). Assigned by the cache handle on insert; unique per cache as long as
-/// each worker number is used by one handle at a time.
+/// A record's identity: the worker that inserted it (16 bits), the frame its handle belonged to
+/// (16 bits, wrapping) and that handle's running count of inserts (32 bits). Assigned by the cache
+/// handle on insert; unique per cache as long as each worker number is used by one handle at a time
+/// within a frame (and a cache sees fewer than 2^16 frames).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Default)]
 pub struct RecordId(u64);
 
 impl RecordId {
-    const SEQ_BITS: u32 = 40;
-
-    /// The `seq`-th record of `worker` (seq reduced modulo 2^40).
-    pub const fn new(worker: WorkerId, seq: u64) -> Self {
-        Self(((worker.0 as u64) << Self::SEQ_BITS) | (seq & ((1 << Self::SEQ_BITS) - 1)))
+    /// The `seq`-th record of `worker` in frame `frame` (frame reduced modulo 2^16, seq modulo 2^32).
+    pub const fn new(worker: WorkerId, frame: u64, seq: u64) -> Self {
+        Self(((worker.0 as u64) << 48) | ((frame & 0xffff) << 32) | (seq & 0xffff_ffff))
     }
 
     /// The worker that inserted the record.
     pub const fn worker(self) -> WorkerId {
-        WorkerId((self.0 >> Self::SEQ_BITS) as u32)
+        WorkerId((self.0 >> 48) as u32)
     }
 
-    /// The insert count of that worker when it inserted the record.
+    /// The frame (modulo 2^16) in which it was inserted.
+    pub const fn frame(self) -> u64 {
+        (self.0 >> 32) & 0xffff
+    }
+
+    /// The insert count of its handle when it was inserted.
     pub const fn seq(self) -> u64 {
-        self.0 & ((1 << Self::SEQ_BITS) - 1)
+        self.0 & 0xffff_ffff
     }
 
     /// The packed value.
@@ -62,7 +66,7 @@ impl RecordId {
 
 impl fmt::Display for RecordId {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "r{}.{}", self.worker().0, self.seq())
+        write!(f, "r{}.{}.{}", self.worker().0, self.frame(), self.seq())
     }
 }
 
@@ -212,10 +216,18 @@ impl Record {
         Ok(())
     }
 
-    /// Gives the record its identity and seals it with a hash of its fields.
+    /// Gives the record its identity and seals it with a hash of its fields (the caches do this
+    /// on insert, overwriting any earlier id).
     pub(crate) fn seal(&mut self, id: RecordId) {
         self.id = id;
         self.check = self.digest();
+    }
+
+    /// The record with identity `id`, sealed: for code that stores records outside a cache (the
+    /// bare-list models, oracles).
+    pub fn sealed(mut self, id: RecordId) -> Self {
+        self.seal(id);
+        self
     }
 
     /// True when the check field matches the other fields: the record was read whole, as sealed.
@@ -260,10 +272,11 @@ mod tests {
 
     #[test]
     fn record_id_packs_worker_and_sequence() {
-        let id = RecordId::new(WorkerId::new(7), 123_456);
+        let id = RecordId::new(WorkerId::new(7), 3, 123_456);
         assert_eq!(id.worker(), WorkerId::new(7));
-        assert_eq!(id.seq(), 123_456);
-        assert_eq!(id.to_string(), "r7.123456");
+        assert_eq!((id.frame(), id.seq()), (3, 123_456));
+        assert_eq!(id.to_string(), "r7.3.123456");
+        assert_ne!(id, RecordId::new(WorkerId::new(7), 4, 123_456));
         assert_eq!(WorkerId::new(WorkerId::MAX + 2), WorkerId::new(1));
     }
 
@@ -271,7 +284,7 @@ mod tests {
     fn sealing_detects_any_changed_field() {
         let mut r = sample();
         assert!(!r.is_intact(), "an unsealed record must not pass");
-        r.seal(RecordId::new(WorkerId::new(1), 1));
+        r.seal(RecordId::new(WorkerId::new(1), 0, 1));
         assert!(r.is_intact());
         let mut torn = r;
         torn.irradiance.y = 0.25;
@@ -280,7 +293,7 @@ mod tests {
         torn.grad_r[2].x = 1e-9;
         assert!(!torn.is_intact());
         let mut torn = r;
-        torn.id = RecordId::new(WorkerId::new(1), 2);
+        torn.id = RecordId::new(WorkerId::new(1), 0, 2);
         assert!(!torn.is_intact());
         // An all-zero record (what an unwritten slot would hold) is never intact.
         let zero = Record::new(Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, 0.0);

@@ -73,10 +73,10 @@ impl Slot {
 
 /// The list was full (only under `loom`, where capacity is shrunk).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(crate) struct ListFull;
+pub struct ListFull;
 
 /// An append-only, wait-free list of records.
-pub(crate) struct RecordList<O: Orderings> {
+pub struct RecordList<O: Orderings> {
     /// Slots reserved so far (written or not).
     head: AtomicUsize,
     /// Segment `s`: null, or the first of `segment_len(s)` slots, allocated as a boxed slice.
@@ -94,7 +94,8 @@ unsafe impl<O: Orderings> Sync for RecordList<O> {}
 unsafe impl<O: Orderings> Send for RecordList<O> {}
 
 impl<O: Orderings> RecordList<O> {
-    pub(crate) fn new() -> Self {
+    /// An empty list (no segment allocated).
+    pub fn new() -> Self {
         Self {
             head: AtomicUsize::new(0),
             segments: std::array::from_fn(|_| AtomicPtr::new(ptr::null_mut())),
@@ -102,9 +103,9 @@ impl<O: Orderings> RecordList<O> {
         }
     }
 
-    /// Appends `record`.
+    /// Appends `record`; returns the index of its slot.
     #[inline]
-    pub(crate) fn push(&self, record: Record) -> Result<(), ListFull> {
+    pub fn push(&self, record: Record) -> Result<usize, ListFull> {
         // Relaxed (Reserve): the read-modify-write alone makes indices unique; nothing is published
         // through the head — readers learn a slot is written from its own flag.
         let index = self.head.fetch_add(1, ord::<O>(Site::Reserve));
@@ -123,7 +124,7 @@ impl<O: Orderings> RecordList<O> {
             // Acquire load in `for_each` sees `true`.
             slot.ready.store(true, ord::<O>(Site::SlotPublish));
         }
-        Ok(())
+        Ok(index)
     }
 
     /// The segment `segment`, allocating and installing it if it is missing.
@@ -169,7 +170,7 @@ impl<O: Orderings> RecordList<O> {
     /// Calls `f` with every published record. Slots that are reserved but not yet written, or
     /// whose segment is not yet installed, are skipped.
     #[inline]
-    pub(crate) fn for_each(&self, f: &mut impl FnMut(&Record)) {
+    pub fn for_each(&self, f: &mut impl FnMut(&Record)) {
         // Relaxed (HeadRead): the head only bounds the scan. A stale value merely skips records
         // whose insert is concurrent with this scan; every slot read is guarded by its own flag.
         let reserved = self.head.load(ord::<O>(Site::HeadRead));
@@ -197,7 +198,7 @@ impl<O: Orderings> RecordList<O> {
     }
 
     /// How many records are published (for statistics; `&mut self`, so nothing is in flight).
-    pub(crate) fn published(&mut self) -> usize {
+    pub fn published(&mut self) -> usize {
         let mut n = 0;
         self.for_each(&mut |_| n += 1);
         n
@@ -225,6 +226,12 @@ fn read_slot<O: Orderings>(slot: &Slot, f: &mut impl FnMut(&Record)) {
 unsafe fn free_segment(base: *mut Slot, segment: usize) -> Box<[Slot]> {
     // SAFETY: guaranteed by the caller.
     unsafe { Box::from_raw(ptr::slice_from_raw_parts_mut(base, segment_len(segment))) }
+}
+
+impl<O: Orderings> Default for RecordList<O> {
+    fn default() -> Self {
+        Self::new()
+    }
 }
 
 impl<O: Orderings> Drop for RecordList<O> {

@@ -37,10 +37,14 @@ use super::{
 use crate::ic::{InsertError, Interpolated, Record, WorkerId};
 use crate::sync::{fence, AtomicPtr, Ordering};
 use glam::Vec3;
+#[cfg(not(feature = "loom"))]
 use list::RecordList;
 use orderings::{ord, Site};
 use std::ptr;
 
+/// The record list itself, for the loom models that exercise it alone.
+#[cfg(feature = "loom")]
+pub use list::{ListFull, RecordList};
 pub use orderings::{Minimal, Orderings, ReadFence, SeqCstEverywhere};
 
 /// What an insert does when its compare-and-swap on a missing child loses the race.
@@ -167,7 +171,7 @@ impl<O: Orderings> WaitFree<O> {
             };
         }
         match node.records.push(record) {
-            Ok(()) => (Placed::Stored, steps, lost),
+            Ok(_) => (Placed::Stored, steps, lost),
             Err(list::ListFull) => (Placed::Full, steps, lost),
         }
     }
@@ -308,7 +312,7 @@ impl<O: Orderings> IrradianceCache for WaitFree<O> {
     fn handle(&self, worker: WorkerId) -> WfHandle<'_, O> {
         WfHandle {
             cache: self,
-            core: HandleCore::new(worker),
+            core: HandleCore::new(worker, self.stats.frames),
         }
     }
 

@@ -1,0 +1,214 @@
+//! The subcommands.
+
+use clap::{Parser, Subcommand, ValueEnum};
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use std::io::IsTerminal;
+use std::process::ExitCode;
+use wfic::cache::wf::Minimal;
+use wfic::cache::{
+    CasFailure, IrradianceCache, LocalWrite, Locked, MutexFlavour, RwLockFlavour, Sequential,
+    WaitFree,
+};
+use wfic::workload::{run_frame, Frame, FrameResult, Room};
+
+#[derive(Parser)]
+#[command(
+    name = "wfic",
+    version,
+    about = "Shared irradiance caches: TRA, LCK, LW and wait-free WF"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Fill every cache scheme from several threads with a synthetic renderer-like workload and
+    /// print what each did (time, samples, hits, sharing, overheads).
+    Demo(DemoArgs),
+}
+
+/// The access schemes, as the command line spells them.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+enum Scheme {
+    Tra,
+    Lck,
+    LckRw,
+    Lw,
+    Wf,
+    WfDiscard,
+}
+
+#[derive(clap::Args)]
+struct DemoArgs {
+    /// Schemes to run (default: all).
+    #[arg(long, value_enum, value_delimiter = ',')]
+    scheme: Vec<Scheme>,
+    /// Worker threads (TRA always runs on one).
+    #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u32).range(1..=256))]
+    threads: u32,
+    /// Shading points per frame.
+    #[arg(long, default_value_t = 400_000, value_parser = clap::value_parser!(u64).range(1..))]
+    points: u64,
+    /// Frames (the cache is kept across frames, as in the paper's animations).
+    #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u64).range(1..=10_000))]
+    frames: u64,
+    /// Ward's accuracy a.
+    #[arg(long, default_value_t = 0.3)]
+    accuracy: f32,
+    /// Busy-work iterations standing in for one hemisphere sampling.
+    #[arg(long, default_value_t = 20_000)]
+    work: u32,
+    /// No progress bar.
+    #[arg(long)]
+    quiet: bool,
+}
+
+pub fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Demo(args) => demo(&args),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(message) => {
+            eprintln!("error: {message}");
+            ExitCode::from(2)
+        }
+    }
+}
+
+fn demo(args: &DemoArgs) -> Result<(), String> {
+    if !(args.accuracy > 0.0 && args.accuracy <= 2.0) {
+        return Err(format!("--accuracy {} is not in (0, 2]", args.accuracy));
+    }
+    let schemes = if args.scheme.is_empty() {
+        vec![
+            Scheme::Tra,
+            Scheme::Lck,
+            Scheme::LckRw,
+            Scheme::Lw,
+            Scheme::Wf,
+            Scheme::WfDiscard,
+        ]
+    } else {
+        args.scheme.clone()
+    };
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let room = Room { size: 10.0 };
+    println!(
+        "synthetic irradiance-cache workload: {} shading points x {} frames, accuracy {}, {} cores{}",
+        args.points,
+        args.frames,
+        args.accuracy,
+        cores,
+        if args.threads as usize > cores {
+            format!(" ({} threads: OVERSUBSCRIBED, not scaling)", args.threads)
+        } else {
+            String::new()
+        }
+    );
+    println!(
+        "{:<11} {:>7} {:>5} {:>9} {:>9} {:>9} {:>8} {:>10} {:>9} {:>9}",
+        "scheme",
+        "threads",
+        "frame",
+        "seconds",
+        "samples",
+        "hits",
+        "sharing",
+        "lock-wait",
+        "merge",
+        "discarded"
+    );
+    for scheme in schemes {
+        let threads = if scheme == Scheme::Tra {
+            1
+        } else {
+            args.threads
+        };
+        let config = room.config(args.accuracy);
+        let rows = match scheme {
+            Scheme::Tra => frames(Sequential::new(config), room, threads, args),
+            Scheme::Lck => frames(Locked::<MutexFlavour>::new(config), room, threads, args),
+            Scheme::LckRw => frames(Locked::<RwLockFlavour>::new(config), room, threads, args),
+            Scheme::Lw => frames(LocalWrite::new(config), room, threads, args),
+            Scheme::Wf => frames(
+                WaitFree::<Minimal>::new(config, CasFailure::Adopt),
+                room,
+                threads,
+                args,
+            ),
+            Scheme::WfDiscard => frames(
+                WaitFree::<Minimal>::new(config, CasFailure::Discard),
+                room,
+                threads,
+                args,
+            ),
+        };
+        for (frame, r) in rows.iter().enumerate() {
+            let w = &r.report.workers;
+            println!(
+                "{:<11} {:>7} {:>5} {:>9.3} {:>9} {:>9} {:>7.1}% {:>10.4} {:>9.4} {:>9}",
+                if frame == 0 { name(scheme) } else { "" },
+                threads,
+                frame,
+                r.wall.as_secs_f64(),
+                w.stored + w.discarded,
+                w.hits,
+                100.0 * w.shared_hits as f64 / w.hits.max(1) as f64,
+                w.lock_wait.as_secs_f64(),
+                r.report.merge.as_secs_f64(),
+                w.discarded
+            );
+        }
+    }
+    Ok(())
+}
+
+fn name(scheme: Scheme) -> &'static str {
+    match scheme {
+        Scheme::Tra => "tra",
+        Scheme::Lck => "lck",
+        Scheme::LckRw => "lck-rw",
+        Scheme::Lw => "lw",
+        Scheme::Wf => "wf",
+        Scheme::WfDiscard => "wf-discard",
+    }
+}
+
+fn frames<C: IrradianceCache>(
+    mut cache: C,
+    room: Room,
+    threads: u32,
+    args: &DemoArgs,
+) -> Vec<FrameResult> {
+    let total = args.points * args.frames;
+    let bar = ProgressBar::new(total);
+    if args.quiet || !std::io::stderr().is_terminal() {
+        bar.set_draw_target(ProgressDrawTarget::hidden());
+    }
+    bar.set_style(
+        ProgressStyle::with_template("{prefix:>11} [{bar:40}] {pos}/{len} points ({eta})")
+            .expect("static template")
+            .progress_chars("=> "),
+    );
+    bar.set_prefix(cache.scheme());
+    let mut out = Vec::new();
+    for frame in 0..args.frames {
+        let done = frame * args.points;
+        let spec = Frame {
+            room,
+            threads,
+            points: args.points as usize,
+            work_per_record: args.work,
+            seed: 0x1234 + frame,
+        };
+        out.push(run_frame(&mut cache, &spec, &|finished| {
+            bar.set_position(done + finished as u64);
+        }));
+    }
+    bar.finish_and_clear();
+    out
+}

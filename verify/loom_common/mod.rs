@@ -1,0 +1,143 @@
+//! Shared by the loom models: the model runner with its stated preemption bound, a tiny world,
+//! and records placed at known depths.
+#![allow(dead_code)]
+
+pub mod models;
+
+use glam::Vec3;
+use std::panic::{catch_unwind, AssertUnwindSafe};
+use wfic::cache::{CacheConfig, CacheHandle, Inserted, IrradianceCache};
+use wfic::ic::{Record, RecordId, WorkerId};
+use wfic::sync::{Arc, AtomicBool, Ordering};
+
+/// loom's preemption bound for every model: `None`, so each model explores every interleaving
+/// loom can generate (no bound at all). The models are small enough: the whole loom suite runs in
+/// seconds. Set `Some(n)` here to trade completeness for time if a model grows.
+pub const PREEMPTION_BOUND: Option<usize> = None;
+
+/// The depth at which [`child_record`] records are stored.
+pub const CHILD_DEPTH: u32 = 1;
+
+fn builder() -> loom::model::Builder {
+    let mut b = loom::model::Builder::new();
+    b.preemption_bound = PREEMPTION_BOUND;
+    b
+}
+
+/// Runs `f` under loom, exhaustively (see [`PREEMPTION_BOUND`]); returns how many executions
+/// loom ran, which is also printed (`--nocapture` shows it).
+pub fn model(f: impl Fn() + Sync + Send + 'static) -> usize {
+    let runs = std::sync::Arc::new(std::sync::atomic::AtomicUsize::new(0));
+    let counter = runs.clone();
+    builder().check(move || {
+        // A std atomic: invisible to loom, it only counts executions.
+        counter.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        f();
+    });
+    let n = runs.load(std::sync::atomic::Ordering::Relaxed);
+    eprintln!(
+        "{}: {n} executions",
+        std::thread::current().name().unwrap_or("model")
+    );
+    n
+}
+
+/// Runs a model that must fail; returns loom's (or the model's) panic message.
+pub fn expect_failure(f: impl Fn() + Sync + Send + 'static) -> String {
+    let hook = std::panic::take_hook();
+    std::panic::set_hook(Box::new(|_| {}));
+    let result = catch_unwind(AssertUnwindSafe(|| builder().check(f)));
+    std::panic::set_hook(hook);
+    match result {
+        Ok(()) => panic!("the model passed, but it was expected to fail"),
+        Err(payload) => payload
+            .downcast_ref::<String>()
+            .cloned()
+            .or_else(|| payload.downcast_ref::<&str>().map(|s| s.to_string()))
+            .unwrap_or_default(),
+    }
+}
+
+/// The model world: a 4-unit box at accuracy 1.
+pub fn config() -> CacheConfig {
+    CacheConfig::new(Vec3::ZERO, Vec3::splat(4.0), 1.0).unwrap()
+}
+
+/// A record stored in the root (influence 10 > the root's half-size); `x` shifts it along x.
+pub fn root_record(x: f32) -> Record {
+    Record::new(
+        Vec3::new(2.0 + x, 2.0, 2.0),
+        Vec3::Z,
+        Vec3::new(1.0, 2.0, 3.0),
+        10.0,
+    )
+}
+
+/// A record stored at depth 1, in the (-,-,-) octant; `x` shifts it along x inside that octant.
+pub fn child_record(x: f32) -> Record {
+    Record::new(
+        Vec3::new(1.0 + x, 1.0, 1.0),
+        Vec3::Z,
+        Vec3::new(3.0, 2.0, 1.0),
+        0.8,
+    )
+}
+
+/// A sealed record for the bare-list models; its x coordinate names it.
+pub fn sealed(x: f32) -> Record {
+    Record::new(Vec3::new(x, 0.0, 0.0), Vec3::Z, Vec3::splat(x + 1.0), 1.0).sealed(RecordId::new(
+        WorkerId::new(0),
+        0,
+        x as u64,
+    ))
+}
+
+/// Inserts `r` through a fresh handle of worker `worker`; returns the outcome, the steps the
+/// insert took and the compare-and-swaps it lost.
+pub fn insert_one<C: IrradianceCache>(cache: &C, worker: u32, r: Record) -> (Inserted, u32, u64) {
+    let mut h = cache.handle(WorkerId::new(worker));
+    let outcome = h.insert(r).expect("model record refused");
+    let stats = *h.stats();
+    drop(h.finish());
+    (outcome, stats.max_insert_steps, stats.cas_failures)
+}
+
+/// The records valid at `p` (normal +z), through a fresh handle of worker `worker`.
+pub fn valid_at<C: IrradianceCache>(cache: &C, worker: u32, p: Vec3) -> Vec<Record> {
+    let mut h = cache.handle(WorkerId::new(worker));
+    let mut out = Vec::new();
+    h.valid_records(p, Vec3::Z, &mut out);
+    drop(h.finish());
+    out
+}
+
+/// A start signal that makes loom explore "the other thread goes first".
+///
+/// loom's DPOR remembers only the *last* access to each atomic. When thread B loads a pointer and
+/// then compare-and-swaps it, B's own load is the last access its CAS is compared with, so the race
+/// between B's CAS and thread A's earlier load of the same pointer is never noticed and the
+/// schedule "B publishes, then A reads" is never run (we saw exactly one execution of the
+/// lookup-versus-child-creation model without this). B stores the flag first thing and A loads it
+/// just before its racing operation: a dependent pair loom does see, so it also runs B ahead of A.
+/// Both accesses are Relaxed, so the flag adds no happens-before edge that could hide a bug.
+#[derive(Clone)]
+pub struct Go(Arc<AtomicBool>);
+
+impl Go {
+    /// A fresh signal.
+    pub fn new() -> Self {
+        Self(Arc::new(AtomicBool::new(false)))
+    }
+
+    /// Called by the spawned thread before its operation.
+    pub fn signal(&self) {
+        // Relaxed: a scheduling hint for loom, not a synchronisation.
+        self.0.store(true, Ordering::Relaxed);
+    }
+
+    /// Called by the other thread just before its racing operation.
+    pub fn peek(&self) -> bool {
+        // Relaxed: as above.
+        self.0.load(Ordering::Relaxed)
+    }
+}
