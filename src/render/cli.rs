@@ -302,6 +302,12 @@ pub fn run_render(args: RenderArgs) -> Result<(), RenderError> {
         .cache_config(&scene)
         .map_err(|e| RenderError::Usage(e.to_string()))?;
     let camera = scene.camera();
+    if args.scheme == Scheme::Tra && args.threads > 1 {
+        eprintln!(
+            "note: tra holds its octree for the whole frame; the other {} worker(s) only wait",
+            args.threads - 1
+        );
+    }
     let (frame, records) = render_with_scheme(
         args.scheme,
         &scene,
