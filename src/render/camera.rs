@@ -71,7 +71,13 @@ impl Camera {
     /// The frame for a `width` x `height` image.
     pub fn view(&self, width: u32, height: u32) -> View {
         let forward = (self.target - self.eye).normalize();
-        let right = forward.cross(self.up).normalize();
+        // Looking along `up` leaves the roll undefined: fall back to another axis.
+        let up = if forward.cross(self.up).length_squared() > 1e-8 {
+            self.up
+        } else {
+            forward.any_orthonormal_vector()
+        };
+        let right = forward.cross(up).normalize();
         let up = right.cross(forward);
         View {
             eye: self.eye,
@@ -137,6 +143,10 @@ mod tests {
             assert!((q - Vec2::new(x, y)).length() < 1e-3, "{q} vs {x},{y}");
         }
         assert_eq!(view.project(view.eye() - view.direction(32.0, 24.0)), None);
+        // Looking straight down still gives a frame.
+        let down = Camera::look_at(Vec3::Y, Vec3::ZERO, Vec3::Y, 40.0).view(8, 8);
+        assert!(down.direction(4.0, 4.0).is_finite());
+        assert!((down.direction(4.0, 4.0) + Vec3::Y).length() < 1e-5);
     }
 
     #[test]
