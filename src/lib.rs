@@ -9,6 +9,8 @@
 //! 1. [`sync`] — the only module naming atomics, `UnsafeCell`, threads and locks (std, loom or shuttle).
 //! 2. [`ic`] — irradiance-cache mathematics: records, Ward's weight, validity, interpolation.
 //! 3. [`cache`] — the four schemes behind [`cache::IrradianceCache`].
+//! 5. `render` — a compact renderer that drives the caches end to end (not built under the
+//!    model checkers).
 //!
 //! The paper mapped to the code, and every deviation from it, is in `paper-notes.md`.
 #![warn(missing_docs)]
@@ -17,6 +19,8 @@
 pub mod cache;
 pub mod ic;
 pub mod lincheck;
+#[cfg(not(checker))]
+pub mod render;
 pub mod sync;
 pub mod workload;
 

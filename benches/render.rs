@@ -1,0 +1,34 @@
+//! End-to-end render benchmark: a small Cornell box frame with an empty cache, per scheme
+//! (the paper's still-image experiment, Table 1, in miniature). Threads: 1 for TRA, 2 otherwise
+//! (the machine has 2 cores).
+// The renderer is compiled out under the model checkers (`cfg(checker)`, set by build.rs).
+#[cfg(not(checker))]
+mod bench {
+    use criterion::{criterion_group, Criterion};
+    use wfic::render::cli::{render_with_scheme, Scheme};
+    use wfic::render::{scenes, RenderSettings};
+
+    fn cornell(c: &mut Criterion) {
+        let scene = scenes::cornell().expect("cornell builds");
+        let settings = RenderSettings::new(128, 128);
+        let config = settings.cache_config(&scene).expect("config");
+        let camera = scene.camera();
+        let mut group = c.benchmark_group("render_cornell_128");
+        group.sample_size(10);
+        for scheme in Scheme::ALL {
+            let threads = if scheme == Scheme::Tra { 1 } else { 2 };
+            group.bench_function(format!("{}/{threads}t", scheme.name()), |b| {
+                b.iter(|| render_with_scheme(scheme, &scene, &camera, &settings, config, threads))
+            });
+        }
+        group.finish();
+    }
+
+    criterion_group!(benches, cornell);
+}
+
+#[cfg(not(checker))]
+criterion::criterion_main!(bench::benches);
+
+#[cfg(checker)]
+fn main() {}

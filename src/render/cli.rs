@@ -1,0 +1,374 @@
+//! `wfic render`: one frame of a built-in scene or an OBJ file with one cache scheme, written as
+//! a tone-mapped PNG, a PFM, a record-position overlay and JSON statistics.
+//!
+//! `src/main.rs` wires the subcommand to [`run_render`]; [`RenderError::exit_code`] says how to
+//! exit (2 for bad input, 1 for a failure while writing).
+
+use super::film::worker_colour;
+use super::{
+    obj, render_frame, render_reference, scenes, Camera, FrameResult, RenderSettings, Scene,
+};
+use crate::cache::{
+    CacheConfig, CasFailure, IrradianceCache, LocalWrite, Locked, MutexFlavour, RwLockFlavour,
+    Sequential, WaitFree,
+};
+use glam::Vec3;
+use std::fmt;
+use std::path::{Path, PathBuf};
+
+/// The cache schemes, as the CLI spells them.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum Scheme {
+    /// Sequential octree (one thread holds it for the frame).
+    Tra,
+    /// Octree behind a `Mutex`.
+    Lck,
+    /// Octree behind an `RwLock`.
+    #[value(name = "lck-rw")]
+    LckRw,
+    /// Per-thread local caches merged at frame end.
+    Lw,
+    /// Wait-free octree, losers of a child race adopt the winner's child.
+    Wf,
+    /// Wait-free octree, losers of a child race discard their sample (the paper).
+    #[value(name = "wf-discard")]
+    WfDiscard,
+    /// No cache: the indirect term at every pixel (the reference).
+    None,
+}
+
+impl Scheme {
+    /// The scheme's name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Tra => "tra",
+            Self::Lck => "lck",
+            Self::LckRw => "lck-rw",
+            Self::Lw => "lw",
+            Self::Wf => "wf",
+            Self::WfDiscard => "wf-discard",
+            Self::None => "none",
+        }
+    }
+
+    /// Every scheme, the reference last.
+    pub const ALL: [Scheme; 7] = [
+        Self::Tra,
+        Self::Lck,
+        Self::LckRw,
+        Self::Lw,
+        Self::Wf,
+        Self::WfDiscard,
+        Self::None,
+    ];
+}
+
+/// Renders one frame with `scheme` and a fresh cache (or none), returning the frame and the
+/// records the cache holds afterwards.
+pub fn render_with_scheme(
+    scheme: Scheme,
+    scene: &Scene,
+    camera: &Camera,
+    settings: &RenderSettings,
+    config: CacheConfig,
+    threads: usize,
+) -> (FrameResult, Vec<crate::ic::Record>) {
+    fn go<C: IrradianceCache>(
+        mut cache: C,
+        scene: &Scene,
+        camera: &Camera,
+        settings: &RenderSettings,
+        threads: usize,
+    ) -> (FrameResult, Vec<crate::ic::Record>) {
+        let out = render_frame(scene, camera, settings, &mut cache, threads);
+        let records = cache.snapshot();
+        (out, records)
+    }
+    match scheme {
+        Scheme::Tra => go(Sequential::new(config), scene, camera, settings, threads),
+        Scheme::Lck => go(
+            Locked::<MutexFlavour>::new(config),
+            scene,
+            camera,
+            settings,
+            threads,
+        ),
+        Scheme::LckRw => go(
+            Locked::<RwLockFlavour>::new(config),
+            scene,
+            camera,
+            settings,
+            threads,
+        ),
+        Scheme::Lw => go(LocalWrite::new(config), scene, camera, settings, threads),
+        Scheme::Wf => go(
+            WaitFree::<crate::cache::wf::Minimal>::new(config, CasFailure::Adopt),
+            scene,
+            camera,
+            settings,
+            threads,
+        ),
+        Scheme::WfDiscard => go(
+            WaitFree::<crate::cache::wf::Minimal>::new(config, CasFailure::Discard),
+            scene,
+            camera,
+            settings,
+            threads,
+        ),
+        Scheme::None => (
+            render_reference(scene, camera, settings, threads),
+            Vec::new(),
+        ),
+    }
+}
+
+fn parse_vec3(s: &str) -> Result<Vec3, String> {
+    let parts: Vec<f32> = s
+        .split(',')
+        .map(|p| p.trim().parse::<f32>().map_err(|e| format!("`{p}`: {e}")))
+        .collect::<Result<_, _>>()?;
+    match parts[..] {
+        [x, y, z] if x.is_finite() && y.is_finite() && z.is_finite() => Ok(Vec3::new(x, y, z)),
+        _ => Err(format!("expected three finite numbers `x,y,z`, got `{s}`")),
+    }
+}
+
+/// Arguments of `wfic render`.
+#[derive(Clone, Debug, clap::Args)]
+pub struct RenderArgs {
+    /// Built-in scene: cornell, desk, conference, office or sponza.
+    #[arg(long, default_value = "cornell", conflicts_with = "obj")]
+    pub scene: String,
+    /// Render this OBJ file (with its MTL: `Kd` diffuse colour, `Ke` emission) instead of a
+    /// built-in scene.
+    #[arg(long, value_name = "FILE")]
+    pub obj: Option<PathBuf>,
+    /// Cache scheme (`none`: the indirect term at every pixel, no cache).
+    #[arg(long, value_enum, default_value = "wf")]
+    pub scheme: Scheme,
+    /// Worker threads.
+    #[arg(long, default_value_t = 1)]
+    pub threads: usize,
+    /// Image width in pixels.
+    #[arg(long, default_value_t = 512)]
+    pub width: u32,
+    /// Image height in pixels.
+    #[arg(long, default_value_t = 512)]
+    pub height: u32,
+    /// Ward's accuracy `a` (smaller: more records).
+    #[arg(long, default_value_t = 0.25)]
+    pub accuracy: f32,
+    /// Hemisphere rays per irradiance record.
+    #[arg(long, default_value_t = 512)]
+    pub rays_per_record: u32,
+    /// Light samples (shadow rays) per pixel for direct light.
+    #[arg(long, default_value_t = 8)]
+    pub light_samples: u32,
+    /// Seed of the per-pixel random streams.
+    #[arg(long, default_value_t = 0x5eed)]
+    pub seed: u64,
+    /// Camera position `x,y,z` (default: the scene's camera).
+    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
+    pub eye: Option<Vec3>,
+    /// Point the camera looks at `x,y,z` (default: the scene's).
+    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
+    pub target: Option<Vec3>,
+    /// Use the scene's orbit camera at this time (turns: 0 and 1 are the same position) instead
+    /// of its default camera; `--eye`/`--target` still override.
+    #[arg(long, value_name = "T")]
+    pub orbit: Option<f32>,
+    /// Tone-mapped PNG output.
+    #[arg(long, default_value = "render.png")]
+    pub out: PathBuf,
+    /// HDR output (PFM). Default: the PNG's name with `.pfm`.
+    #[arg(long)]
+    pub hdr: Option<PathBuf>,
+    /// Record-position overlay (PNG). Default: the PNG's name with `-records.png`.
+    #[arg(long)]
+    pub records: Option<PathBuf>,
+    /// Statistics as JSON.
+    #[arg(long)]
+    pub stats: Option<PathBuf>,
+    /// No progress bar.
+    #[arg(long)]
+    pub quiet: bool,
+}
+
+/// What went wrong in `wfic render`.
+#[derive(Debug)]
+pub enum RenderError {
+    /// Bad input: unknown scene, zero threads or size, bad OBJ file, bad setting. Exit code 2.
+    Usage(String),
+    /// A failure while writing output. Exit code 1.
+    Io(String),
+}
+
+impl RenderError {
+    /// The process exit code for this error.
+    pub fn exit_code(&self) -> i32 {
+        match self {
+            Self::Usage(_) => 2,
+            Self::Io(_) => 1,
+        }
+    }
+}
+
+impl fmt::Display for RenderError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::Usage(m) | Self::Io(m) => f.write_str(m),
+        }
+    }
+}
+
+impl std::error::Error for RenderError {}
+
+fn with_suffix(path: &Path, suffix: &str) -> PathBuf {
+    let stem = path
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "render".to_owned());
+    path.with_file_name(format!("{stem}{suffix}"))
+}
+
+/// Loads the scene the arguments name.
+pub fn load_scene(args: &RenderArgs) -> Result<Scene, RenderError> {
+    let mut scene = match &args.obj {
+        Some(file) => obj::load(file).map_err(|e| RenderError::Usage(e.to_string()))?,
+        None => scenes::by_name(&args.scene)
+            .ok_or_else(|| {
+                RenderError::Usage(format!(
+                    "unknown scene `{}` (expected one of: {})",
+                    args.scene,
+                    scenes::NAMES.join(", ")
+                ))
+            })?
+            .map_err(|e| RenderError::Usage(e.to_string()))?,
+    };
+    if let Some(t) = args.orbit {
+        if !t.is_finite() {
+            return Err(RenderError::Usage(format!(
+                "--orbit {t} is not a finite time"
+            )));
+        }
+        scene.set_camera(Camera::orbit(&scene, t));
+    }
+    if args.eye.is_some() || args.target.is_some() {
+        let mut camera = scene.camera();
+        camera.eye = args.eye.unwrap_or(camera.eye);
+        camera.target = args.target.unwrap_or(camera.target);
+        if (camera.target - camera.eye).length() <= 0.0 {
+            return Err(RenderError::Usage("--eye and --target coincide".to_owned()));
+        }
+        scene.set_camera(camera);
+    }
+    Ok(scene)
+}
+
+/// Checks the arguments and builds the render settings.
+pub fn settings_from(args: &RenderArgs) -> Result<RenderSettings, RenderError> {
+    let usage = |m: String| Err(RenderError::Usage(m));
+    if args.threads == 0 {
+        return usage("--threads must be at least 1".to_owned());
+    }
+    if args.width == 0 || args.height == 0 {
+        return usage(format!(
+            "image size {}x{} is empty: --width and --height must be at least 1",
+            args.width, args.height
+        ));
+    }
+    if args.rays_per_record == 0 {
+        return usage("--rays-per-record must be at least 1".to_owned());
+    }
+    if args.light_samples == 0 {
+        return usage("--light-samples must be at least 1".to_owned());
+    }
+    if !(args.accuracy > 0.0 && args.accuracy <= 2.0) {
+        return usage(format!("--accuracy {} is not in (0, 2]", args.accuracy));
+    }
+    Ok(RenderSettings::new(args.width, args.height)
+        .accuracy(args.accuracy)
+        .rays_per_record(args.rays_per_record)
+        .light_samples(args.light_samples)
+        .seed(args.seed)
+        .quiet(args.quiet))
+}
+
+/// Runs `wfic render`.
+pub fn run_render(args: RenderArgs) -> Result<(), RenderError> {
+    let settings = settings_from(&args)?;
+    let scene = load_scene(&args)?;
+    let config = settings
+        .cache_config(&scene)
+        .map_err(|e| RenderError::Usage(e.to_string()))?;
+    let camera = scene.camera();
+    if args.scheme == Scheme::Tra && args.threads > 1 {
+        eprintln!(
+            "note: tra holds its octree for the whole frame; the other {} worker(s) only wait",
+            args.threads - 1
+        );
+    }
+    let (frame, records) = render_with_scheme(
+        args.scheme,
+        &scene,
+        &camera,
+        &settings,
+        config,
+        args.threads,
+    );
+    let io = |e: std::io::Error| RenderError::Io(e.to_string());
+    let exposure = frame.image.auto_exposure();
+    frame.image.write_png(&args.out, exposure).map_err(io)?;
+    let hdr = args
+        .hdr
+        .clone()
+        .unwrap_or_else(|| args.out.with_extension("pfm"));
+    frame
+        .image
+        .write_pfm(&hdr)
+        .map_err(|e| RenderError::Io(format!("{}: {e}", hdr.display())))?;
+    let overlay = args
+        .records
+        .clone()
+        .unwrap_or_else(|| with_suffix(&args.out, "-records.png"));
+    let view = camera.view(settings.width, settings.height);
+    let points: Vec<_> = records
+        .iter()
+        .filter_map(|r| {
+            view.project(r.position)
+                .map(|p| (p, worker_colour(r.id().worker().index())))
+        })
+        .collect();
+    frame
+        .image
+        .write_overlay_png(&overlay, exposure, &points)
+        .map_err(io)?;
+    let json = frame.stats.to_json(scene.name());
+    if let Some(path) = &args.stats {
+        std::fs::write(path, &json)
+            .map_err(|e| RenderError::Io(format!("{}: {e}", path.display())))?;
+    }
+    let s = &frame.stats;
+    println!(
+        "{} {} {}x{} threads={}: {:.3} s, {} IC samples, {} lookups, {} hits ({:.1}% shared), \
+         lock wait {:.4} s, merge {:.4} s, {} discarded, {} records; wrote {}, {}, {}",
+        scene.name(),
+        s.scheme,
+        s.width,
+        s.height,
+        s.threads,
+        s.seconds,
+        s.ic_samples,
+        s.lookups,
+        s.hits,
+        100.0 * s.sharing,
+        s.lock_wait_seconds,
+        s.merge_seconds,
+        s.discarded,
+        s.cache_records,
+        args.out.display(),
+        hdr.display(),
+        overlay.display(),
+    );
+    Ok(())
+}

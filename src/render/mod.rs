@@ -1,0 +1,162 @@
+//! A compact, real renderer that drives the caches end to end (DESIGN.md, layer 5).
+//!
+//! One module per job, as pbrt-v4 organises a renderer:
+//!
+//! * [`scene`] — triangles, diffuse materials, emissive triangles, the BVH (obvhs);
+//! * [`scenes`] — the paper's five scenes: the Cornell box from the published data and procedural
+//!   stand-ins for Desk, Conference Room, Office and Sponza (`docs/scenes.md`);
+//! * [`obj`] — Wavefront OBJ/MTL loading for user scenes;
+//! * [`camera`] — pinhole camera and the orbit of the paper's animations;
+//! * [`sampler`] — per-pixel deterministic random numbers;
+//! * [`integrator`] — direct light and one indirect diffuse bounce through the cache;
+//! * [`film`] — the HDR image, PNG/PFM output, the record overlay, relative RMSE;
+//! * [`parallel`] — image tiles handed out to worker threads, one cache handle per worker;
+//! * [`cli`] — the `wfic render` subcommand.
+//!
+//! ```no_run
+//! use wfic::cache::{wf::Minimal, CasFailure, WaitFree};
+//! use wfic::render::{self, scenes, Camera, RenderSettings};
+//!
+//! let scene = scenes::cornell().unwrap();
+//! let settings = RenderSettings::new(128, 128);
+//! let config = settings.cache_config(&scene).unwrap();
+//! let mut cache = WaitFree::<Minimal>::new(config, CasFailure::Adopt);
+//! for frame in 0..4 {
+//!     let camera = Camera::orbit(&scene, frame as f32 / 4.0);
+//!     let out = render::render_frame(&scene, &camera, &settings, &mut cache, 2);
+//!     println!("frame {frame}: {:.3} s, {} records computed", out.stats.seconds, out.stats.ic_samples);
+//! }
+//! ```
+//!
+//! The renderer has no `unsafe` code: the cache is its only shared mutable state, apart from the
+//! tile counter (a Relaxed atomic from [`crate::sync`]) and the progress bar.
+#![forbid(unsafe_code)]
+
+pub mod camera;
+pub mod cli;
+pub mod film;
+pub mod integrator;
+pub mod obj;
+pub mod parallel;
+pub mod sampler;
+pub mod scene;
+pub mod scenes;
+
+pub use camera::{Camera, Orbit};
+pub use film::Image;
+pub use parallel::{render_frame, render_orbit, render_reference, FrameResult, FrameStats};
+pub use scene::{Material, Scene, SceneBuilder, SceneError};
+
+use crate::cache::{CacheConfig, ConfigError};
+use integrator::Strata;
+
+/// How a frame is rendered: image size, sampling and the cache's radius clamps.
+///
+/// The record radius (Ward's `R_i`, the clamped harmonic mean distance) is clamped to
+/// `[r_min, r_max]` with
+/// `r_min = max(min_radius_pixels * footprint, min_radius_scene * diagonal)` and
+/// `r_max = max(r_min, min(max_radius_pixels * footprint, max_radius_scene * diagonal))`, where
+/// `footprint` is the side of one pixel at the shaded point and `diagonal` the scene's size. The
+/// pixel bounds keep record density tied to what the image resolves (Tabellion & Lamorlette 2004,
+/// Křivánek et al. 2008); the scene bounds keep records sane when the footprint is tiny (a wall
+/// next to the eye) or huge (a far wall at a grazing angle).
+#[derive(Clone, Debug, PartialEq)]
+pub struct RenderSettings {
+    /// Image width in pixels.
+    pub width: u32,
+    /// Image height in pixels.
+    pub height: u32,
+    /// Ward's accuracy `a` for the cache ([`RenderSettings::cache_config`]).
+    pub accuracy: f32,
+    /// Hemisphere rays per irradiance estimate (rounded to `M x N` strata).
+    pub rays_per_record: u32,
+    /// Light samples (shadow rays) for the direct term at each pixel.
+    pub light_samples: u32,
+    /// Lower radius clamp, in pixel footprints.
+    pub min_radius_pixels: f32,
+    /// Upper radius clamp, in pixel footprints.
+    pub max_radius_pixels: f32,
+    /// Lower radius clamp, as a fraction of the scene's diagonal.
+    pub min_radius_scene: f32,
+    /// Upper radius clamp, as a fraction of the scene's diagonal.
+    pub max_radius_scene: f32,
+    /// Side of the square tiles handed to workers, in pixels.
+    pub tile_size: u32,
+    /// Seed of every pixel's random streams.
+    pub seed: u64,
+    /// Hide the progress bar.
+    pub quiet: bool,
+}
+
+impl RenderSettings {
+    /// Defaults for a `width` x `height` image.
+    pub fn new(width: u32, height: u32) -> Self {
+        Self {
+            width,
+            height,
+            accuracy: 0.25,
+            rays_per_record: 512,
+            light_samples: 8,
+            min_radius_pixels: 6.0,
+            max_radius_pixels: 120.0,
+            min_radius_scene: 0.002,
+            max_radius_scene: 0.25,
+            tile_size: 16,
+            seed: 0x5eed,
+            quiet: true,
+        }
+    }
+
+    /// Sets the accuracy.
+    pub fn accuracy(mut self, a: f32) -> Self {
+        self.accuracy = a;
+        self
+    }
+
+    /// Sets the hemisphere rays per record.
+    pub fn rays_per_record(mut self, rays: u32) -> Self {
+        self.rays_per_record = rays;
+        self
+    }
+
+    /// Sets the light samples per pixel.
+    pub fn light_samples(mut self, n: u32) -> Self {
+        self.light_samples = n;
+        self
+    }
+
+    /// Sets the seed.
+    pub fn seed(mut self, seed: u64) -> Self {
+        self.seed = seed;
+        self
+    }
+
+    /// Shows (`false`) or hides (`true`) the progress bar.
+    pub fn quiet(mut self, quiet: bool) -> Self {
+        self.quiet = quiet;
+        self
+    }
+
+    /// The strata of one irradiance estimate.
+    pub fn strata(&self) -> Strata {
+        Strata::for_rays(self.rays_per_record)
+    }
+
+    /// A cache configuration for `scene`: its bounds enlarged by 1% of the diagonal on every
+    /// side (so points on the outer walls are well inside), at this accuracy.
+    pub fn cache_config(&self, scene: &Scene) -> Result<CacheConfig, ConfigError> {
+        let (lo, hi) = scene.bounds();
+        let margin = 0.01 * scene.diagonal();
+        CacheConfig::new(lo - margin, hi + margin, self.accuracy)
+    }
+
+    /// The radius clamps at a point whose pixel footprint is `footprint`, for a scene of size
+    /// `diagonal`: `(r_min, r_max)` as documented on the type.
+    pub fn radius_bounds(&self, footprint: f32, diagonal: f32) -> (f32, f32) {
+        let r_min = (self.min_radius_pixels * footprint).max(self.min_radius_scene * diagonal);
+        let r_max = (self.max_radius_pixels * footprint)
+            .min(self.max_radius_scene * diagonal)
+            .max(r_min);
+        (r_min, r_max)
+    }
+}

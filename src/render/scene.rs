@@ -1,0 +1,421 @@
+//! Scenes: triangles with diffuse materials, emissive triangles as area lights, and the BVH
+//! (obvhs's compressed wide BVH, built once per scene) that answers closest-hit and shadow queries.
+
+use super::camera::{Camera, Orbit};
+use super::sampler::Rng;
+use glam::{Vec3, Vec3A};
+use obvhs::cwbvh::{builder::build_cwbvh_from_tris, CwBvh};
+use obvhs::ray::{Ray, RayHit};
+use obvhs::triangle::Triangle;
+use obvhs::BvhBuildParams;
+use std::fmt;
+use std::time::Duration;
+
+/// A diffuse (Lambertian) material, optionally emissive.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Material {
+    /// Diffuse reflectance per channel, in `[0, 1)`.
+    pub albedo: Vec3,
+    /// Emitted radiance per channel (one-sided: towards the triangle's winding normal).
+    pub emission: Vec3,
+}
+
+impl Material {
+    /// A non-emissive diffuse material.
+    pub const fn diffuse(albedo: Vec3) -> Self {
+        Self {
+            albedo,
+            emission: Vec3::ZERO,
+        }
+    }
+
+    /// An emitter with radiance `emission` and a dark diffuse albedo.
+    pub const fn light(emission: Vec3) -> Self {
+        Self {
+            albedo: Vec3::splat(0.78),
+            emission,
+        }
+    }
+
+    /// True when the material emits light.
+    pub fn is_emissive(&self) -> bool {
+        self.emission.max_element() > 0.0
+    }
+}
+
+/// Index of a material in a scene.
+pub type MaterialId = u32;
+
+/// Why a scene could not be built.
+#[derive(Clone, Debug, PartialEq)]
+pub enum SceneError {
+    /// No triangle with a non-zero area.
+    Empty(String),
+    /// A vertex is not finite.
+    NonFinite(String),
+    /// No emissive triangle: nothing lights the scene.
+    NoLights(String),
+}
+
+impl fmt::Display for SceneError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::Empty(name) => write!(f, "scene `{name}` has no triangles"),
+            Self::NonFinite(name) => write!(f, "scene `{name}` has a vertex that is not finite"),
+            Self::NoLights(name) => write!(
+                f,
+                "scene `{name}` has no emissive triangle (material with emission): nothing lights it"
+            ),
+        }
+    }
+}
+
+impl std::error::Error for SceneError {}
+
+/// Collects triangles and materials; [`SceneBuilder::build`] makes the BVH.
+#[derive(Clone, Debug, Default)]
+pub struct SceneBuilder {
+    triangles: Vec<[Vec3; 3]>,
+    material_of: Vec<MaterialId>,
+    materials: Vec<Material>,
+}
+
+impl SceneBuilder {
+    /// An empty builder.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Adds a material and returns its id.
+    pub fn material(&mut self, m: Material) -> MaterialId {
+        self.materials.push(m);
+        (self.materials.len() - 1) as MaterialId
+    }
+
+    /// Adds a triangle; its winding normal `(b - a) x (c - a)` is the side an emitter lights.
+    pub fn triangle(&mut self, a: Vec3, b: Vec3, c: Vec3, m: MaterialId) {
+        self.triangles.push([a, b, c]);
+        self.material_of.push(m);
+    }
+
+    /// Adds the quad `a b c d` (corners in order) as two triangles.
+    pub fn quad(&mut self, a: Vec3, b: Vec3, c: Vec3, d: Vec3, m: MaterialId) {
+        self.triangle(a, b, c, m);
+        self.triangle(a, c, d, m);
+    }
+
+    /// Triangles added so far.
+    pub fn triangle_count(&self) -> usize {
+        self.triangles.len()
+    }
+
+    /// The bounding box of the triangles so far.
+    pub fn bounds(&self) -> (Vec3, Vec3) {
+        self.triangles.iter().flatten().fold(
+            (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
+            |(lo, hi), &p| (lo.min(p), hi.max(p)),
+        )
+    }
+
+    /// True when some triangle uses an emissive material.
+    pub fn has_lights(&self) -> bool {
+        self.material_of
+            .iter()
+            .any(|&m| self.materials[m as usize].is_emissive())
+    }
+
+    /// Builds the scene: drops zero-area triangles, builds the BVH, lists the lights.
+    pub fn build(self, name: &str, camera: Camera, orbit: Orbit) -> Result<Scene, SceneError> {
+        let mut triangles = Vec::with_capacity(self.triangles.len());
+        let mut material_of = Vec::with_capacity(self.triangles.len());
+        for (t, &m) in self.triangles.iter().zip(&self.material_of) {
+            if !t.iter().all(|p| p.is_finite()) {
+                return Err(SceneError::NonFinite(name.to_owned()));
+            }
+            if (t[1] - t[0]).cross(t[2] - t[0]).length_squared() > 0.0 {
+                triangles.push(Triangle {
+                    v0: t[0].into(),
+                    v1: t[1].into(),
+                    v2: t[2].into(),
+                });
+                material_of.push(m);
+            }
+        }
+        if triangles.is_empty() {
+            return Err(SceneError::Empty(name.to_owned()));
+        }
+        let bvh = build_cwbvh_from_tris(
+            &triangles,
+            BvhBuildParams::medium_build(),
+            &mut Duration::default(),
+        );
+        // Lay the triangles out in the BVH's leaf order, so a leaf's primitive index is the
+        // triangle's index (obvhs's cornell_box example does the same).
+        let tris: Vec<Tri> = bvh
+            .primitive_indices
+            .iter()
+            .map(|&i| {
+                let t = triangles[i as usize];
+                let (a, b, c) = (Vec3::from(t.v0), Vec3::from(t.v1), Vec3::from(t.v2));
+                let cross = (b - a).cross(c - a);
+                Tri {
+                    geometry: t,
+                    normal: cross.normalize(),
+                    area: 0.5 * cross.length(),
+                    material: material_of[i as usize],
+                }
+            })
+            .collect();
+        let (lo, hi) = triangles.iter().fold(
+            (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
+            |(lo, hi), t| {
+                let lo = lo.min(t.v0.into()).min(t.v1.into()).min(t.v2.into());
+                let hi = hi.max(t.v0.into()).max(t.v1.into()).max(t.v2.into());
+                (lo, hi)
+            },
+        );
+        // Lights: every emissive triangle of the *input* (not the BVH copy, which may repeat a
+        // triangle under spatial splits), chosen with probability proportional to its power.
+        let mut lights = Vec::new();
+        let mut cdf = Vec::new();
+        let mut total = 0.0f64;
+        for (t, &m) in triangles.iter().zip(&material_of) {
+            let mat = self.materials[m as usize];
+            if mat.is_emissive() {
+                let (a, b, c) = (Vec3::from(t.v0), Vec3::from(t.v1), Vec3::from(t.v2));
+                let cross = (b - a).cross(c - a);
+                let area = 0.5 * cross.length();
+                let power = f64::from(luminance(mat.emission) * area);
+                total += power;
+                lights.push(Light {
+                    corners: [a, b, c],
+                    normal: cross.normalize(),
+                    area,
+                    emission: mat.emission,
+                    pdf: 0.0,
+                });
+                cdf.push(total);
+            }
+        }
+        if lights.is_empty() {
+            return Err(SceneError::NoLights(name.to_owned()));
+        }
+        for (l, c) in lights.iter_mut().zip(cdf.iter_mut()) {
+            *c /= total;
+            l.pdf = (f64::from(luminance(l.emission) * l.area) / total) as f32;
+        }
+        Ok(Scene {
+            name: name.to_owned(),
+            input_triangles: triangles.len(),
+            tris,
+            materials: self.materials,
+            bvh,
+            lights,
+            light_cdf: cdf,
+            bounds: (lo, hi),
+            camera,
+            orbit,
+        })
+    }
+}
+
+/// Rec. 709 luminance.
+pub fn luminance(c: Vec3) -> f32 {
+    c.dot(Vec3::new(0.2126, 0.7152, 0.0722))
+}
+
+#[derive(Clone, Copy, Debug)]
+struct Tri {
+    geometry: Triangle,
+    normal: Vec3,
+    area: f32,
+    material: MaterialId,
+}
+
+/// An emissive triangle.
+#[derive(Clone, Copy, Debug)]
+pub struct Light {
+    corners: [Vec3; 3],
+    normal: Vec3,
+    area: f32,
+    emission: Vec3,
+    /// Probability of choosing this light.
+    pdf: f32,
+}
+
+/// A sampled point on a light.
+#[derive(Clone, Copy, Debug)]
+pub struct LightSample {
+    /// The point.
+    pub point: Vec3,
+    /// The light's emitting normal.
+    pub normal: Vec3,
+    /// Emitted radiance.
+    pub emission: Vec3,
+    /// Probability density of the sample per unit area (light choice included).
+    pub pdf_area: f32,
+}
+
+/// A ray's closest hit.
+#[derive(Clone, Copy, Debug)]
+pub struct Hit {
+    /// Distance along the (unit) ray.
+    pub t: f32,
+    /// Unit geometric normal, as wound (not flipped towards the ray).
+    pub normal: Vec3,
+    /// The surface's material.
+    pub material: Material,
+}
+
+/// A scene ready to render: triangles in BVH order, materials, lights, bounds, a default camera.
+pub struct Scene {
+    name: String,
+    input_triangles: usize,
+    tris: Vec<Tri>,
+    materials: Vec<Material>,
+    bvh: CwBvh,
+    lights: Vec<Light>,
+    light_cdf: Vec<f64>,
+    bounds: (Vec3, Vec3),
+    camera: Camera,
+    orbit: Orbit,
+}
+
+impl fmt::Debug for Scene {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("Scene")
+            .field("name", &self.name)
+            .field("triangles", &self.input_triangles)
+            .field("lights", &self.lights.len())
+            .field("bounds", &self.bounds)
+            .finish_non_exhaustive()
+    }
+}
+
+impl Scene {
+    /// The scene's name.
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+
+    /// Triangles with a non-zero area.
+    pub fn triangle_count(&self) -> usize {
+        self.input_triangles
+    }
+
+    /// Emissive triangles.
+    pub fn light_count(&self) -> usize {
+        self.lights.len()
+    }
+
+    /// The smallest luminance an emitter has: a diffuse surface lit by the scene reflects less than
+    /// this (its albedo is below 1), so pixels above it see an emitter.
+    pub fn min_emitter_luminance(&self) -> f32 {
+        self.lights
+            .iter()
+            .map(|l| luminance(l.emission))
+            .fold(f32::INFINITY, f32::min)
+    }
+
+    /// Each emissive triangle's centroid and emitting (unit) normal.
+    pub fn emitters(&self) -> impl Iterator<Item = (Vec3, Vec3)> + '_ {
+        self.lights
+            .iter()
+            .map(|l| ((l.corners[0] + l.corners[1] + l.corners[2]) / 3.0, l.normal))
+    }
+
+    /// Total area of the emissive triangles.
+    pub fn light_area(&self) -> f32 {
+        self.lights.iter().map(|l| l.area).sum()
+    }
+
+    /// Axis-aligned bounds `(min, max)`.
+    pub fn bounds(&self) -> (Vec3, Vec3) {
+        self.bounds
+    }
+
+    /// Length of the bounds' diagonal: the scene's size.
+    pub fn diagonal(&self) -> f32 {
+        (self.bounds.1 - self.bounds.0).length()
+    }
+
+    /// The default camera.
+    pub fn camera(&self) -> Camera {
+        self.camera
+    }
+
+    /// The orbit for animations.
+    pub fn orbit(&self) -> &Orbit {
+        &self.orbit
+    }
+
+    /// Replaces the default camera.
+    pub fn set_camera(&mut self, camera: Camera) {
+        self.camera = camera;
+    }
+
+    /// The materials.
+    pub fn materials(&self) -> &[Material] {
+        &self.materials
+    }
+
+    /// The closest hit along the unit ray `origin + t dir`, `t` in `(0, t_max)`.
+    #[inline]
+    pub fn intersect(&self, origin: Vec3, dir: Vec3, t_max: f32) -> Option<Hit> {
+        let ray = Ray::new(Vec3A::from(origin), Vec3A::from(dir), 0.0, t_max);
+        let mut hit = RayHit::none();
+        if self
+            .bvh
+            .ray_traverse(ray, &mut hit, |r, id| self.tris[id].geometry.intersect(r))
+        {
+            let tri = &self.tris[hit.primitive_id as usize];
+            Some(Hit {
+                t: hit.t,
+                normal: tri.normal,
+                material: self.materials[tri.material as usize],
+            })
+        } else {
+            None
+        }
+    }
+
+    /// True when nothing blocks the unit ray `origin + t dir` for `t` in `(0, t_max)`.
+    #[inline]
+    pub fn unoccluded(&self, origin: Vec3, dir: Vec3, t_max: f32) -> bool {
+        let ray = Ray::new(Vec3A::from(origin), Vec3A::from(dir), 0.0, t_max);
+        self.bvh
+            .ray_traverse_miss(ray, |r, id| self.tris[id].geometry.intersect(r))
+    }
+
+    /// A point on a light, the light chosen by power and the point uniformly on it.
+    #[inline]
+    pub fn sample_light(&self, rng: &mut Rng) -> LightSample {
+        let u = [rng.next_f32(), rng.next_f32(), rng.next_f32()];
+        self.light_at(u)
+    }
+
+    /// The light point for the uniform numbers `u` in `[0, 1)^3`: `u[0]` chooses the light (by
+    /// power), `u[1]` and `u[2]` the point on it (uniform in area). Stratifying `u` stratifies the
+    /// samples.
+    #[inline]
+    pub fn light_at(&self, u: [f32; 3]) -> LightSample {
+        let i = self
+            .light_cdf
+            .partition_point(|&c| c <= f64::from(u[0]))
+            .min(self.lights.len() - 1);
+        let l = &self.lights[i];
+        let (s, t) = (u[1].sqrt(), u[2]);
+        let [a, b, c] = l.corners;
+        LightSample {
+            point: a * (1.0 - s) + b * (s * (1.0 - t)) + c * (s * t),
+            normal: l.normal,
+            emission: l.emission,
+            pdf_area: l.pdf / l.area,
+        }
+    }
+
+    /// Surface area of every triangle (for tests and documentation).
+    pub fn surface_area(&self) -> f32 {
+        self.tris.iter().map(|t| t.area).sum()
+    }
+}

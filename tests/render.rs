@@ -1,0 +1,443 @@
+//! The renderer end to end: colours, accuracy of every scheme against the reference, determinism,
+//! statistics, reuse across frames, OBJ loading errors and the CLI's exit codes.
+//!
+//! Debug builds render tiny images; the full accuracy check on every built-in scene is
+//! `cargo test --release --test render -- --ignored`.
+#![cfg(not(checker))]
+
+use glam::Vec3;
+use std::path::PathBuf;
+use wfic::cache::{CasFailure, LocalWrite, Sequential, WaitFree};
+use wfic::render::cli::{render_with_scheme, run_render, RenderArgs, Scheme};
+use wfic::render::{self, obj, scenes, Camera, Image, RenderSettings};
+
+fn small(size: u32) -> RenderSettings {
+    let mut s = RenderSettings::new(size, size)
+        .rays_per_record(128)
+        .light_samples(4);
+    s.tile_size = 8;
+    s
+}
+
+fn region_mean(img: &Image, x: std::ops::Range<u32>, y: std::ops::Range<u32>) -> Vec3 {
+    let mut sum = Vec3::ZERO;
+    let mut n = 0.0;
+    for yy in y {
+        for xx in x.clone() {
+            sum += img.get(xx, yy);
+            n += 1.0;
+        }
+    }
+    sum / n
+}
+
+#[test]
+fn cornell_box_has_a_red_left_wall_and_a_green_right_wall() {
+    let scene = scenes::cornell().unwrap();
+    let settings = small(48);
+    let mut cache = WaitFree::<wfic::cache::wf::Minimal>::new(
+        settings.cache_config(&scene).unwrap(),
+        CasFailure::Adopt,
+    );
+    let out = render::render_frame(&scene, &scene.camera(), &settings, &mut cache, 2);
+    let left = region_mean(&out.image, 2..5, 12..30);
+    let right = region_mean(&out.image, 43..46, 12..30);
+    let back = region_mean(&out.image, 20..28, 8..14);
+    assert!(left.x > 3.0 * left.y, "left wall is red: {left}");
+    assert!(right.y > 2.0 * right.x, "right wall is green: {right}");
+    assert!(back.min_element() > 0.0, "back wall is lit: {back}");
+    assert!(out.stats.ic_samples > 0 && out.stats.hits > 0);
+}
+
+#[test]
+fn every_scheme_is_within_five_percent_of_the_reference_on_cornell() {
+    let scene = scenes::cornell().unwrap();
+    let settings = small(40);
+    let config = settings.cache_config(&scene).unwrap();
+    let camera = scene.camera();
+    let (reference, _) = render_with_scheme(Scheme::None, &scene, &camera, &settings, config, 2);
+    assert_eq!(reference.stats.lookups, 0);
+    assert!(
+        reference.stats.ic_samples > 1000,
+        "the reference samples every pixel it shades"
+    );
+    for scheme in Scheme::ALL.into_iter().filter(|&s| s != Scheme::None) {
+        let threads = if scheme == Scheme::Tra { 1 } else { 2 };
+        let (frame, records) =
+            render_with_scheme(scheme, &scene, &camera, &settings, config, threads);
+        let rmse = frame.image.relative_rmse(&reference.image).unwrap();
+        assert!(rmse < 0.05, "{}: relative RMSE {rmse:.4}", scheme.name());
+        let s = &frame.stats;
+        assert_eq!(s.scheme, scheme.name());
+        // Every lookup either hit or computed a record (the reference shades the same pixels).
+        assert_eq!(s.hits + s.ic_samples, s.lookups, "{}", scheme.name());
+        assert_eq!(s.lookups, reference.stats.ic_samples);
+        assert_eq!(s.stored + s.discarded, s.ic_samples);
+        assert_eq!(s.rejected, 0);
+        assert_eq!(records.len(), s.cache_records);
+        assert_eq!(s.cache_records as u64, s.stored);
+        assert!(
+            s.ic_samples < s.lookups / 2,
+            "{}: the cache saves work",
+            scheme.name()
+        );
+        if scheme != Scheme::WfDiscard {
+            assert_eq!(s.discarded, 0);
+        }
+        if scheme == Scheme::Lw {
+            // Within one frame LW shares nothing.
+            assert_eq!(s.shared_hits, 0);
+        }
+    }
+}
+
+#[test]
+fn tra_with_one_thread_is_deterministic() {
+    let scene = scenes::cornell().unwrap();
+    let settings = small(32);
+    let config = settings.cache_config(&scene).unwrap();
+    let camera = scene.camera();
+    let (a, ra) = render_with_scheme(Scheme::Tra, &scene, &camera, &settings, config, 1);
+    let (b, rb) = render_with_scheme(Scheme::Tra, &scene, &camera, &settings, config, 1);
+    assert_eq!(a.image, b.image, "bit for bit");
+    assert_eq!(ra, rb);
+    // A different seed changes the image.
+    let other = settings.clone().seed(99);
+    let (c, _) = render_with_scheme(Scheme::Tra, &scene, &camera, &other, config, 1);
+    assert_ne!(a.image, c.image);
+}
+
+#[test]
+fn a_warm_cache_serves_the_next_frame() {
+    let scene = scenes::cornell().unwrap();
+    let settings = small(32);
+    let camera = scene.camera();
+    let mut cache = Sequential::new(settings.cache_config(&scene).unwrap());
+    let first = render::render_frame(&scene, &camera, &settings, &mut cache, 1);
+    let second = render::render_frame(&scene, &camera, &settings, &mut cache, 1);
+    assert!(first.stats.ic_samples > 0);
+    assert_eq!(
+        second.stats.ic_samples, 0,
+        "every pixel has its own record now"
+    );
+    assert_eq!(second.stats.hits, second.stats.lookups);
+    assert!(second.image.relative_rmse(&first.image).unwrap() < 0.05);
+
+    // LW: records of frame one are shared in frame two (merged at the barrier).
+    let mut lw = LocalWrite::new(settings.cache_config(&scene).unwrap());
+    let one = render::render_frame(&scene, &camera, &settings, &mut lw, 2);
+    assert_eq!(one.stats.shared_hits, 0, "LW shares nothing within a frame");
+    let two = render::render_frame(&scene, &camera, &settings, &mut lw, 2);
+    assert_eq!(two.stats.ic_samples, 0);
+    assert!(
+        two.stats.shared_hits > 0,
+        "frame two reads the merged records"
+    );
+    // An orbit frame (inside the box) renders something, reusing the cache.
+    let moved = Camera::orbit(&scene, 0.25);
+    let orbit = render::render_frame(&scene, &moved, &settings, &mut lw, 2);
+    assert!(orbit.image.mean().max_element() > 0.0);
+}
+
+#[test]
+fn built_in_scenes_have_the_documented_sizes() {
+    let cornell = scenes::cornell().unwrap();
+    assert_eq!(cornell.triangle_count(), 32);
+    assert_eq!(cornell.light_count(), 2);
+    let desk = scenes::desk().unwrap();
+    assert!(
+        (1_000..10_000).contains(&desk.triangle_count()),
+        "{}",
+        desk.triangle_count()
+    );
+    let office = scenes::office().unwrap();
+    assert!(
+        (5_000..20_000).contains(&office.triangle_count()),
+        "{}",
+        office.triangle_count()
+    );
+    let conference = scenes::conference().unwrap();
+    assert!((20_000..60_000).contains(&conference.triangle_count()));
+    let sponza = scenes::sponza().unwrap();
+    assert!(
+        (80_000..200_000).contains(&sponza.triangle_count()),
+        "{}",
+        sponza.triangle_count()
+    );
+    assert!(sponza.diagonal() > 10.0 * cornell.diagonal());
+    assert!(scenes::by_name("nope").is_none());
+    // Every emitter faces into its room (towards the centre of the bounds).
+    for scene in [&cornell, &desk, &office, &conference, &sponza] {
+        let (lo, hi) = scene.bounds();
+        let centre = (lo + hi) * 0.5;
+        for (at, normal) in scene.emitters() {
+            assert!(
+                (centre - at).dot(normal) > 0.0,
+                "{}: emitter at {at} faces {normal}, away from the room",
+                scene.name()
+            );
+        }
+    }
+}
+
+fn temp_dir(tag: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("wfic-render-{tag}-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+const BOX_OBJ: &str = "mtllib box.mtl
+v 0 0 0
+v 1 0 0
+v 1 0 1
+v 0 0 1
+v 0 1 0
+v 1 1 0
+v 1 1 1
+v 0 1 1
+v 0.4 0.99 0.4
+v 0.6 0.99 0.4
+v 0.6 0.99 0.6
+v 0.4 0.99 0.6
+usemtl white
+f 1 2 3 4
+f 5 8 7 6
+f 1 5 6 2
+f 4 3 7 8
+usemtl red
+f 1//1 4//1 8//1 5//1
+usemtl light
+f -4 -3 -2 -1
+";
+
+const BOX_MTL: &str = "newmtl white
+Kd 0.7 0.7 0.7
+newmtl red
+Kd 0.7 0.1 0.1
+newmtl light
+Kd 0 0 0
+Ke 10 10 10
+";
+
+#[test]
+fn obj_files_load_and_render() {
+    let dir = temp_dir("obj");
+    std::fs::write(dir.join("box.obj"), BOX_OBJ).unwrap();
+    std::fs::write(dir.join("box.mtl"), BOX_MTL).unwrap();
+    let scene = obj::load(&dir.join("box.obj")).unwrap();
+    assert_eq!(scene.triangle_count(), 12);
+    assert_eq!(scene.light_count(), 2);
+    let settings = small(24);
+    let mut cache = WaitFree::<wfic::cache::wf::Minimal>::new(
+        settings.cache_config(&scene).unwrap(),
+        CasFailure::Adopt,
+    );
+    // Looking in through the open side (x = 1).
+    let camera = Camera::look_at(
+        Vec3::new(2.5, 0.5, 0.5),
+        Vec3::new(0.0, 0.4, 0.5),
+        Vec3::Y,
+        60.0,
+    );
+    let out = render::render_frame(&scene, &camera, &settings, &mut cache, 1);
+    assert!(out.image.mean().max_element() > 0.0);
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn bad_obj_files_are_named_with_their_line() {
+    let dir = temp_dir("bad");
+    let missing = obj::load(&dir.join("missing.obj")).unwrap_err().to_string();
+    assert!(
+        missing.contains("missing.obj") && missing.contains("cannot read"),
+        "{missing}"
+    );
+
+    std::fs::write(dir.join("empty.obj"), "# nothing\n").unwrap();
+    let empty = obj::load(&dir.join("empty.obj")).unwrap_err().to_string();
+    assert!(
+        empty.contains("empty.obj") && empty.contains("no faces"),
+        "{empty}"
+    );
+
+    std::fs::write(dir.join("bad.obj"), "v 0 0 0\nv 1 0 0\nv 0 zz 1\nf 1 2 3\n").unwrap();
+    let bad = obj::load(&dir.join("bad.obj")).unwrap_err().to_string();
+    assert!(bad.contains("bad.obj:3:") && bad.contains("zz"), "{bad}");
+
+    std::fs::write(
+        dir.join("index.obj"),
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n",
+    )
+    .unwrap();
+    let index = obj::load(&dir.join("index.obj")).unwrap_err().to_string();
+    assert!(
+        index.contains("index.obj:4:") && index.contains("out of range"),
+        "{index}"
+    );
+
+    std::fs::write(dir.join("mtl.obj"), "mtllib nope.mtl\nv 0 0 0\n").unwrap();
+    let mtl = obj::load(&dir.join("mtl.obj")).unwrap_err().to_string();
+    assert!(
+        mtl.contains("nope.mtl") && mtl.contains("mtl.obj:1"),
+        "{mtl}"
+    );
+
+    std::fs::write(dir.join("use.obj"), "v 0 0 0\nusemtl ghost\n").unwrap();
+    let ghost = obj::load(&dir.join("use.obj")).unwrap_err().to_string();
+    assert!(
+        ghost.contains("use.obj:2:") && ghost.contains("ghost"),
+        "{ghost}"
+    );
+
+    // No emitter: a light panel is added so the scene still renders.
+    std::fs::write(
+        dir.join("dark.obj"),
+        "v 0 0 0\nv 1 0 0\nv 0 0 1\nv 0 1 0\nf 1 2 3\nf 1 3 4\n",
+    )
+    .unwrap();
+    let dark = obj::load(&dir.join("dark.obj")).unwrap();
+    assert_eq!(dark.light_count(), 2);
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+fn args(dir: &std::path::Path) -> RenderArgs {
+    use clap::Parser;
+    #[derive(Parser)]
+    struct Cli {
+        #[command(flatten)]
+        args: RenderArgs,
+    }
+    let out = dir.join("c.png");
+    let stats = dir.join("c.json");
+    Cli::parse_from([
+        "wfic",
+        "--scene",
+        "cornell",
+        "--scheme",
+        "wf",
+        "--threads",
+        "2",
+        "--width",
+        "24",
+        "--height",
+        "20",
+        "--rays-per-record",
+        "64",
+        "--quiet",
+        "--out",
+        out.to_str().unwrap(),
+        "--stats",
+        stats.to_str().unwrap(),
+    ])
+    .args
+}
+
+#[test]
+fn the_cli_writes_every_output_and_refuses_bad_input() {
+    let dir = temp_dir("cli");
+    run_render(args(&dir)).unwrap();
+    for f in ["c.png", "c.pfm", "c-records.png", "c.json"] {
+        assert!(dir.join(f).metadata().unwrap().len() > 0, "{f}");
+    }
+    let json = std::fs::read_to_string(dir.join("c.json")).unwrap();
+    for key in [
+        "seconds",
+        "ic_samples",
+        "lookups",
+        "lock_wait_seconds",
+        "merge_seconds",
+        "discarded",
+        "sharing",
+        "threads",
+        "scheme",
+        "scene",
+        "width",
+        "height",
+    ] {
+        assert!(
+            json.contains(&format!("\"{key}\":")),
+            "{key} missing from {json}"
+        );
+    }
+    assert!(json.contains("\"width\": 24") && json.contains("\"scheme\": \"wf\""));
+    let hdr = Image::read_pfm(&dir.join("c.pfm")).unwrap();
+    assert_eq!((hdr.width(), hdr.height()), (24, 20));
+
+    let mut zero = args(&dir);
+    zero.threads = 0;
+    assert_eq!(run_render(zero).unwrap_err().exit_code(), 2);
+    let mut empty = args(&dir);
+    empty.width = 0;
+    assert_eq!(run_render(empty).unwrap_err().exit_code(), 2);
+    let mut unknown = args(&dir);
+    unknown.scene = "atrium".into();
+    let e = run_render(unknown).unwrap_err();
+    assert_eq!(e.exit_code(), 2);
+    assert!(e.to_string().contains("atrium") && e.to_string().contains("sponza"));
+    let mut obj = args(&dir);
+    obj.obj = Some(dir.join("nope.obj"));
+    let e = run_render(obj).unwrap_err();
+    assert_eq!(e.exit_code(), 2);
+    assert!(e.to_string().contains("nope.obj"));
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// The issue's accuracy bar on every built-in scene: `wf` within 5% relative RMSE of `none` (and
+/// every other scheme too). Release only: `cargo test --release --test render -- --ignored`.
+#[test]
+#[ignore = "slow in debug builds; run with --release -- --ignored"]
+fn every_scene_and_scheme_is_within_five_percent_of_the_reference() {
+    for name in scenes::NAMES {
+        let scene = scenes::by_name(name).unwrap().unwrap();
+        let settings = RenderSettings::new(128, 128);
+        let config = settings.cache_config(&scene).unwrap();
+        let camera = scene.camera();
+        let (reference, _) =
+            render_with_scheme(Scheme::None, &scene, &camera, &settings, config, 2);
+        for scheme in Scheme::ALL.into_iter().filter(|&s| s != Scheme::None) {
+            let (frame, _) = render_with_scheme(scheme, &scene, &camera, &settings, config, 2);
+            let rmse = frame.image.relative_rmse(&reference.image).unwrap();
+            let lit = frame
+                .image
+                .relative_rmse_below(&reference.image, 0.99 * scene.min_emitter_luminance())
+                .unwrap();
+            println!(
+                "{name} {}: relative RMSE {rmse:.4}, without emitter pixels {lit:.4}",
+                scheme.name()
+            );
+            assert!(rmse < 0.05, "{name} {}: {rmse:.4}", scheme.name());
+        }
+    }
+}
+
+#[test]
+fn an_orbit_reuses_the_cache_and_every_frame_is_lit() {
+    for name in ["cornell", "office"] {
+        let scene = scenes::by_name(name).unwrap().unwrap();
+        let settings = small(24);
+        let mut cache = WaitFree::<wfic::cache::wf::Minimal>::new(
+            settings.cache_config(&scene).unwrap(),
+            CasFailure::Adopt,
+        );
+        let mut lit = Vec::new();
+        let stats = render::render_orbit(&scene, &settings, &mut cache, 2, 8, |_, frame| {
+            lit.push(frame.image.mean().max_element() > 0.0);
+        });
+        assert_eq!(lit, vec![true; 8], "{name}: a black orbit frame");
+        let samples: Vec<u64> = stats.iter().map(|s| s.ic_samples).collect();
+        // Camera::orbit closes on itself: frame 8 would be frame 0, which the cache now knows.
+        let again = render::render_frame(
+            &scene,
+            &Camera::orbit(&scene, 1.0),
+            &settings,
+            &mut cache,
+            2,
+        );
+        assert!(
+            again.stats.ic_samples * 4 < samples[0].max(4),
+            "{name}: {} new samples against {} in the first frame",
+            again.stats.ic_samples,
+            samples[0]
+        );
+    }
+}
