@@ -1,6 +1,6 @@
 //! The subcommands.
 
-use clap::{Parser, Subcommand, ValueEnum};
+use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use std::io::IsTerminal;
 use std::process::ExitCode;
@@ -9,6 +9,7 @@ use wfic::cache::{
     CasFailure, IrradianceCache, LocalWrite, Locked, MutexFlavour, RwLockFlavour, Sequential,
     WaitFree,
 };
+use wfic::render::cli::Scheme;
 use wfic::workload::{run_frame, Frame, FrameResult, Room};
 
 #[derive(Parser)]
@@ -24,25 +25,17 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
+    /// Render one frame of a built-in scene or an OBJ file with one cache scheme (PNG, PFM,
+    /// record overlay, JSON statistics).
+    Render(wfic::render::cli::RenderArgs),
     /// Fill every cache scheme from several threads with a synthetic renderer-like workload and
     /// print what each did (time, samples, hits, sharing, overheads).
     Demo(DemoArgs),
 }
 
-/// The access schemes, as the command line spells them.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-enum Scheme {
-    Tra,
-    Lck,
-    LckRw,
-    Lw,
-    Wf,
-    WfDiscard,
-}
-
 #[derive(clap::Args)]
 struct DemoArgs {
-    /// Schemes to run (default: all).
+    /// Schemes to run (default: all cached ones; `none` is not a cache and is skipped).
     #[arg(long, value_enum, value_delimiter = ',')]
     scheme: Vec<Scheme>,
     /// Worker threads (TRA always runs on one).
@@ -69,6 +62,15 @@ pub fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Demo(args) => demo(&args),
+        Command::Render(args) => {
+            return match wfic::render::cli::run_render(args) {
+                Ok(()) => ExitCode::SUCCESS,
+                Err(e) => {
+                    eprintln!("error: {e}");
+                    ExitCode::from(u8::try_from(e.exit_code()).unwrap_or(1))
+                }
+            }
+        }
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -122,7 +124,7 @@ fn demo(args: &DemoArgs) -> Result<(), String> {
         "merge",
         "discarded"
     );
-    for scheme in schemes {
+    for scheme in schemes.into_iter().filter(|s| *s != Scheme::None) {
         let threads = if scheme == Scheme::Tra {
             1
         } else {
@@ -146,12 +148,13 @@ fn demo(args: &DemoArgs) -> Result<(), String> {
                 threads,
                 args,
             ),
+            Scheme::None => unreachable!("filtered out above"),
         };
         for (frame, r) in rows.iter().enumerate() {
             let w = &r.report.workers;
             println!(
                 "{:<11} {:>7} {:>5} {:>9.3} {:>9} {:>9} {:>7.1}% {:>10.4} {:>9.4} {:>9}",
-                if frame == 0 { name(scheme) } else { "" },
+                if frame == 0 { scheme.name() } else { "" },
                 threads,
                 frame,
                 r.wall.as_secs_f64(),
@@ -165,17 +168,6 @@ fn demo(args: &DemoArgs) -> Result<(), String> {
         }
     }
     Ok(())
-}
-
-fn name(scheme: Scheme) -> &'static str {
-    match scheme {
-        Scheme::Tra => "tra",
-        Scheme::Lck => "lck",
-        Scheme::LckRw => "lck-rw",
-        Scheme::Lw => "lw",
-        Scheme::Wf => "wf",
-        Scheme::WfDiscard => "wf-discard",
-    }
 }
 
 fn frames<C: IrradianceCache>(
