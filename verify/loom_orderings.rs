@@ -15,6 +15,7 @@ use wfic::cache::CasFailure;
 /// Asserts that `message` is one of loom's causality reports: the race the weakening opens, not a
 /// model assertion or anything else.
 fn assert_race(what: &str, message: &str) {
+    eprintln!("{what}: {}", message.lines().next().unwrap_or(""));
     assert!(
         message.contains("Causality violation"),
         "{what}: expected loom's causality violation, got: {message}"
