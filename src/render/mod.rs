@@ -4,7 +4,7 @@
 //!
 //! * [`scene`] — triangles, diffuse materials, emissive triangles, the BVH (obvhs);
 //! * [`scenes`] — the paper's five scenes: the Cornell box from the published data and procedural
-//!   stand-ins for Desk, Conference Room, Office and Sponza (`docs/scenes.md`);
+//!   stand-ins for Desk, Conference Room, Office and Sponza (`paper-notes.md` (section "The renderer and its five scenes"));
 //! * [`obj`] — Wavefront OBJ/MTL loading for user scenes;
 //! * [`camera`] — pinhole camera and the orbit of the paper's animations;
 //! * [`sampler`] — per-pixel deterministic random numbers;

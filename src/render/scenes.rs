@@ -1,7 +1,7 @@
 //! The paper's five scenes (Figure 4): the Cornell box from the published measurements, and
 //! procedural stand-ins for Desk, Conference Room, Office and Sponza that keep their character —
 //! enclosed rooms lit by area lights, many occluders, from about 10^3 to about 10^5 triangles and
-//! different physical sizes. `docs/scenes.md` documents each one and how it differs from the
+//! different physical sizes. `paper-notes.md` (section "The renderer and its five scenes") documents each one and how it differs from the
 //! original.
 
 use super::camera::{Camera, Orbit};
