@@ -1,6 +1,6 @@
 //! WF: the wait-free shared irradiance cache (paper §3.3, Listing 6), done right.
 //!
-//! Each node holds eight child pointers and an append-only [`RecordList`](list::RecordList).
+//! Each node holds eight child pointers and an append-only record list (`list.rs`).
 //!
 //! * **Insert** walks from the root towards the node that fits the record (the same placement as
 //!   every other cache, [`super::octree`]). When a child on the way is missing, the whole rest of
@@ -114,6 +114,19 @@ impl<O: Orderings> std::fmt::Debug for WaitFree<O> {
             .field("policy", &self.policy)
             .field("config", &self.config)
             .finish_non_exhaustive()
+    }
+}
+
+impl WaitFree<Minimal> {
+    /// The shipped wait-free cache: minimal orderings, losers of a child race adopt the winner's
+    /// child (no sample lost).
+    pub fn adopt(config: CacheConfig) -> Self {
+        Self::new(config, CasFailure::Adopt)
+    }
+
+    /// The paper's variant: minimal orderings, losers of a child race discard their sample.
+    pub fn discard(config: CacheConfig) -> Self {
+        Self::new(config, CasFailure::Discard)
     }
 }
 

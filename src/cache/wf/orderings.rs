@@ -64,7 +64,7 @@ pub trait Orderings: sealed::Sealed + Send + Sync + 'static {
     /// A `SeqCst` fence at the start of every lookup.
     const READ_FENCE: bool = false;
     /// Whether writers publish slots and readers check the flag. Only the loom-only
-    /// [`PaperLiteral`] policy clears it (readers then read every reserved slot, as Listing 6 does).
+    /// `PaperLiteral` policy clears it (readers then read every reserved slot, as Listing 6 does).
     const PUBLISH_SLOTS: bool = true;
 }
 
