@@ -109,7 +109,7 @@ fn lw_frame_then_merge() {
         let t = thread::spawn(move || worker(l, 1, 0.0));
         let mine = worker(lw.clone(), 0, 0.2);
         let theirs = t.join().unwrap();
-        let mut lw = Arc::try_unwrap(lw).ok().expect("workers joined");
+        let mut lw = Arc::try_unwrap(lw).unwrap_or_else(|_| panic!("workers joined"));
         let report = lw.end_frame(vec![mine, theirs]);
         assert_eq!(report.workers.stored, 2);
         assert_eq!(

@@ -105,7 +105,7 @@ fn workload<C: IrradianceCache + 'static>(cache: C, threads: u32, ops: u64, inse
             }
         }
     }
-    let mut cache = Arc::try_unwrap(cache).ok().expect("workers joined");
+    let mut cache = Arc::try_unwrap(cache).unwrap_or_else(|_| panic!("workers joined"));
     let report = cache.end_frame(residues);
     assert_eq!(report.workers.discarded, discarded);
     if scheme != "wf-discard" {

@@ -41,9 +41,42 @@
 //!   which does not move code across the opaque cache calls in practice. A violation reported from a
 //!   std run is confirmed by replaying it as a hand-built history or under shuttle.
 //!
-//! The cache specification, the recording cache handle and the set-consistency check are in
-//! [`cache`](self::CacheSpec); small specifications for testing the checker itself (a register and
-//! a set) are [`Register`] and [`IntSet`].
+//! # For caches
+//!
+//! [`CacheSpec`] is the sequential specification (the set of stored records, answered by brute
+//! force), [`RecordingHandle`] wraps any [`CacheHandle`](crate::cache::CacheHandle) and records
+//! its inserts and lookups, [`check_set_consistency`] is the weaker check. Small specifications for
+//! testing the checker itself are [`Register`] and [`IntSet`].
+//!
+//! ```
+//! use glam::Vec3;
+//! use wfic::cache::{CacheConfig, IrradianceCache, Locked};
+//! use wfic::ic::{Record, WorkerId};
+//! use wfic::lincheck::{check, CacheSpec, Recorder, RecordingHandle};
+//!
+//! # // Real threads: not under a model checker, whose primitives need its runtime.
+//! # #[cfg(not(any(feature = "loom", feature = "shuttle")))] {
+//! let config = CacheConfig::new(Vec3::ZERO, Vec3::splat(10.0), 0.5).unwrap();
+//! let cache: Locked = Locked::new(config);
+//! let recorder = Recorder::new();
+//! let logs = std::thread::scope(|s| {
+//!     let workers: Vec<_> = (0..2)
+//!         .map(|t| {
+//!             let (cache, log) = (&cache, recorder.log(t));
+//!             s.spawn(move || {
+//!                 let mut h = RecordingHandle::new(cache.handle(WorkerId::new(t as u32)), log);
+//!                 h.insert(Record::new(Vec3::splat(5.0), Vec3::Z, Vec3::ONE, 1.0)).unwrap();
+//!                 h.lookup(Vec3::splat(5.0), Vec3::Z);
+//!                 h.into_parts().1
+//!             })
+//!         })
+//!         .collect();
+//!     workers.into_iter().map(|w| w.join().unwrap()).collect::<Vec<_>>()
+//! });
+//! let history = recorder.into_history(logs);
+//! assert!(check(&history, &CacheSpec::new(config)).is_ok());
+//! # }
+//! ```
 
 mod cache;
 mod models;

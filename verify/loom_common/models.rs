@@ -161,7 +161,7 @@ pub fn a_segment_grows_while_another_thread_inserts_and_a_third_reads<O: Orderin
     let mut idx = [a.join().unwrap(), b.join().unwrap()];
     idx.sort_unstable();
     assert_eq!(idx, [1, 2]);
-    let mut list = Arc::try_unwrap(list).ok().expect("threads joined");
+    let mut list = Arc::try_unwrap(list).unwrap_or_else(|_| panic!("threads joined"));
     assert_eq!(list.published(), 3);
 }
 
