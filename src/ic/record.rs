@@ -235,16 +235,15 @@ impl Record {
         self.check == self.digest()
     }
 
-    /// FNV-1a over the bit patterns of every field but `check`.
+    /// A word-at-a-time hash of the bit patterns of every field but `check`: each 32- or 64-bit
+    /// word is xored in, then the state is multiplied by an odd constant and xor-shifted. Both steps
+    /// are bijections, so changing any single word always changes the digest.
     fn digest(&self) -> u64 {
-        const OFFSET: u64 = 0xcbf2_9ce4_8422_2325;
-        const PRIME: u64 = 0x0000_0100_0000_01b3;
-        let mut h = OFFSET;
+        const MULTIPLIER: u64 = 0x9e37_79b9_7f4a_7c15;
+        let mut h: u64 = 0xcbf2_9ce4_8422_2325;
         let mut eat = |word: u64| {
-            for byte in word.to_le_bytes() {
-                h ^= u64::from(byte);
-                h = h.wrapping_mul(PRIME);
-            }
+            h = (h ^ word).wrapping_mul(MULTIPLIER);
+            h ^= h >> 29;
         };
         let mut vec = |v: Vec3| {
             v.to_array()

@@ -29,7 +29,7 @@
 mod list;
 pub mod orderings;
 
-use super::octree::{Cell, Octant};
+use super::octree::{Cell, Octant, MAX_DEPTH};
 use super::{
     collect_valid, CacheConfig, CacheHandle, CacheStats, FrameReport, HandleCore, Inserted,
     IrradianceCache, WorkerStats,
@@ -280,18 +280,19 @@ impl<O: Orderings> WaitFree<O> {
 
 /// A private chain of nodes from `cell` at `level` down to `depth`, holding `record` at the bottom.
 fn build_path<O: Orderings>(cell: Cell, level: u32, depth: u32, record: Record) -> Box<Node<O>> {
-    let mut cells = Vec::with_capacity((depth - level) as usize);
+    // The octants of the path below `cell`, on the stack (no allocation on the insert path).
+    let mut octants = [Octant::ALL[0]; MAX_DEPTH as usize];
+    let steps = (depth - level) as usize;
     let mut c = cell;
-    for _ in level..depth {
-        let octant = c.octant(record.position);
-        cells.push(octant);
-        c = c.child(octant);
+    for octant in &mut octants[..steps] {
+        *octant = c.octant(record.position);
+        c = c.child(*octant);
     }
     let mut node = Box::new(Node::<O>::new());
     // A fresh list in a fresh node: the push cannot find it full (the first segment has room).
     let pushed = node.records.push(record);
     debug_assert!(pushed.is_ok());
-    for octant in cells.into_iter().rev() {
+    for &octant in octants[..steps].iter().rev() {
         let parent = Box::new(Node::<O>::new());
         // Relaxed: the parent is still private; the Release compare-and-swap in `graft` publishes
         // the whole chain at once.
