@@ -234,6 +234,7 @@ fn shuttle_lw_random() {
 fn shuttle_wf_discard_reaches_a_lost_race() {
     use std::sync::atomic::{AtomicU64, Ordering::Relaxed};
     static DISCARDED: AtomicU64 = AtomicU64::new(0);
+    let _gate = shuttle_common::shared();
     shuttle_common::explore(
         "shuttle_wf_discard_reaches_a_lost_race",
         "4 threads x 8 inserts",
@@ -281,6 +282,7 @@ fn no_discard_ever() {
 
 #[test]
 fn a_failure_is_saved_and_its_replay_reproduces_it() {
+    let _alone = shuttle_common::exclusive();
     let (test, seed) = ("demo_no_discard_ever", 11);
     let hook = std::panic::take_hook();
     std::panic::set_hook(Box::new(|_| {}));
@@ -313,11 +315,13 @@ fn a_failure_is_saved_and_its_replay_reproduces_it() {
     assert!(replayed.contains("a sample was discarded"), "{replayed}");
 }
 
-/// Every failure file committed under `verify/shuttle-regressions/` is replayed. A file whose test
-/// is a real property must now pass (its bug is fixed); the demonstration file of the false
-/// property above must still reproduce its failure.
+/// Every failure file committed under `verify/shuttle-regressions/` is re-run from its seed (its
+/// encoded schedule is tied to the code it was recorded on; the seed is not). A file whose test is
+/// a real property must now pass (its bug is fixed); the demonstration file of the false property
+/// above must still fail the same way.
 #[test]
 fn committed_regressions_replay() {
+    let _alone = shuttle_common::exclusive();
     let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("verify/shuttle-regressions");
     let mut replayed = 0;
     for entry in std::fs::read_dir(&dir).expect("verify/shuttle-regressions exists") {
@@ -328,7 +332,7 @@ fn committed_regressions_replay() {
         let saved = shuttle_common::load_failure(&path);
         match saved.test.as_str() {
             "demo_no_discard_ever" => {
-                let m = shuttle_common::replay_failure(&saved, no_discard_ever);
+                let m = shuttle_common::rerun_seed(&saved, no_discard_ever);
                 assert!(
                     m.is_some_and(|m| m.contains("a sample was discarded")),
                     "{}",

@@ -7,7 +7,8 @@
 //! * A failure is saved to `target/shuttle-failures/<test>-<scheduler>-<seed>.txt`: shuttle's
 //!   version, the scheduler, the seed, the iteration budget, the test's parameters and shuttle's
 //!   encoded schedule. `WFIC_SHUTTLE_REPLAY=<file>` replays that schedule in the test it names, and
-//!   a file committed under `verify/shuttle-regressions/` is replayed by the suite every run.
+//!   a file committed under `verify/shuttle-regressions/` is re-run from its seed every run (its
+//!   encoded schedule goes stale when the code changes; the seed does not).
 #![allow(dead_code)]
 
 use std::fmt::Write as _;
@@ -17,6 +18,24 @@ use std::time::{Duration, SystemTime, UNIX_EPOCH};
 
 use shuttle::scheduler::{PctScheduler, RandomScheduler, ReplayScheduler};
 use shuttle::{Config, FailurePersistence, Runner};
+
+/// Test threads of this binary share the process's panic hook, which shuttle replaces while it
+/// runs. A test that *expects* a shuttle failure therefore runs alone: it takes this gate for
+/// writing, every other exploration takes it for reading. (A std lock: this is test harness, not
+/// code under test, and it is taken outside any shuttle execution.)
+static GATE: std::sync::RwLock<()> = std::sync::RwLock::new(());
+
+/// Held by an exploration that must not overlap a test expecting a failure.
+pub fn shared() -> std::sync::RwLockReadGuard<'static, ()> {
+    GATE.read()
+        .unwrap_or_else(std::sync::PoisonError::into_inner)
+}
+
+/// Held by a test that expects a shuttle failure (it runs alone).
+pub fn exclusive() -> std::sync::RwLockWriteGuard<'static, ()> {
+    GATE.write()
+        .unwrap_or_else(std::sync::PoisonError::into_inner)
+}
 
 /// A scheduler choice.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -171,6 +190,8 @@ pub struct SavedFailure {
     pub sched: Sched,
     /// Its seed.
     pub seed: u64,
+    /// Its iteration budget.
+    pub iterations: usize,
     /// The failure message.
     pub message: String,
     /// Shuttle's encoded schedule.
@@ -195,6 +216,7 @@ pub fn load_failure(path: &Path) -> SavedFailure {
         test: field("test"),
         sched: Sched::parse(&field("scheduler")).expect("scheduler name"),
         seed: field("seed").parse().expect("seed"),
+        iterations: field("iterations").parse().expect("iterations"),
         message: field("message"),
         schedule,
     }
@@ -211,6 +233,27 @@ where
     result.err().map(|p| panic_message(&*p))
 }
 
+/// Re-runs the seeded exploration a saved failure came from (same test, scheduler, seed and
+/// budget); returns the failure message, or `None` if it now passes. Unlike an encoded schedule,
+/// which goes stale as soon as the code's schedule points change, a seed stays meaningful: it is
+/// how committed regressions are kept.
+pub fn rerun_seed<F>(saved: &SavedFailure, f: F) -> Option<String>
+where
+    F: Fn() + Send + Sync + 'static,
+{
+    let result = catch_unwind(AssertUnwindSafe(|| {
+        explore(
+            &saved.test,
+            "regression rerun",
+            saved.sched,
+            saved.seed,
+            saved.iterations,
+            f,
+        )
+    }));
+    result.err().map(|p| panic_message(&*p))
+}
+
 /// Runs `f` with the fixed regression seeds, a fresh seed (unless `WFIC_SHUTTLE_FRESH=0`), or, when
 /// `WFIC_SHUTTLE_REPLAY` names a failure of this test, only that schedule.
 pub fn explore_all<F>(
@@ -223,6 +266,7 @@ pub fn explore_all<F>(
 ) where
     F: Fn() + Send + Sync + Clone + 'static,
 {
+    let _gate = shared();
     if let Ok(path) = std::env::var("WFIC_SHUTTLE_REPLAY") {
         let saved = load_failure(Path::new(&path));
         if saved.test == test {
