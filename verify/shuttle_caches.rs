@@ -82,6 +82,13 @@ fn workload<C: IrradianceCache + 'static>(cache: C, threads: u32, ops: u64, inse
                         );
                     }
                 }
+                // A lookup visits the root and at most 27 nodes per level below it.
+                let nodes = h.stats().max_lookup_nodes;
+                let node_bound = 1 + 27 * MAX_RECORD_DEPTH;
+                assert!(
+                    nodes <= node_bound,
+                    "{scheme}: a lookup visited {nodes} nodes, bound {node_bound}"
+                );
                 let steps = h.stats().max_insert_steps;
                 assert!(
                     steps <= 2 * MAX_RECORD_DEPTH,
