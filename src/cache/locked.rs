@@ -269,7 +269,7 @@ mod tests {
             .unwrap();
         let hook = std::panic::take_hook();
         std::panic::set_hook(Box::new(|_| {}));
-        let died = std::thread::scope(|s| {
+        let died = crate::sync::thread::scope(|s| {
             s.spawn(|| {
                 let _guard = cache.tree.write();
                 panic!("dies holding the lock");
@@ -305,7 +305,7 @@ mod tests {
             &mut wait,
             || None,
             || {
-                std::thread::sleep(Duration::from_millis(5));
+                crate::sync::thread::sleep(Duration::from_millis(5));
                 2
             },
         );
