@@ -14,9 +14,8 @@
 
 mod loom_common;
 
-use loom_common::model;
 use loom_common::models::*;
-use std::sync::atomic::{AtomicUsize, Ordering::Relaxed};
+use loom_common::{model, model_outcomes};
 use wfic::cache::wf::{Minimal, ReadFence, SeqCstEverywhere};
 use wfic::cache::CasFailure;
 
@@ -27,96 +26,48 @@ fn two_inserts_into_one_list_minimal() {
 
 #[test]
 fn two_inserts_race_to_create_one_child_adopt() {
-    static LOST: AtomicUsize = AtomicUsize::new(0);
-    static WON: AtomicUsize = AtomicUsize::new(0);
-    model(|| {
-        let counter = if two_inserts_race_to_create_one_child::<Minimal>(CasFailure::Adopt) {
-            &LOST
-        } else {
-            &WON
-        };
-        counter.fetch_add(1, Relaxed);
-    });
+    let (yes, no) =
+        model_outcomes(|| two_inserts_race_to_create_one_child::<Minimal>(CasFailure::Adopt));
+    assert!(yes > 0, "no explored schedule lost the race");
     assert!(
-        WON.load(Relaxed) > 0,
+        no > 0,
         "no schedule where the second insert found the child"
-    );
-    assert!(
-        LOST.load(Relaxed) > 0,
-        "no explored schedule lost the race: the model is vacuous"
     );
 }
 
 #[test]
 fn two_inserts_race_to_create_one_child_discard() {
-    static LOST: AtomicUsize = AtomicUsize::new(0);
-    static WON: AtomicUsize = AtomicUsize::new(0);
-    model(|| {
-        let counter = if two_inserts_race_to_create_one_child::<Minimal>(CasFailure::Discard) {
-            &LOST
-        } else {
-            &WON
-        };
-        counter.fetch_add(1, Relaxed);
-    });
+    let (yes, no) =
+        model_outcomes(|| two_inserts_race_to_create_one_child::<Minimal>(CasFailure::Discard));
+    assert!(yes > 0, "no explored schedule discarded a sample");
     assert!(
-        WON.load(Relaxed) > 0,
+        no > 0,
         "no schedule where the second insert found the child"
-    );
-    assert!(
-        LOST.load(Relaxed) > 0,
-        "no explored schedule discarded a sample"
     );
 }
 
 #[test]
 fn insert_races_lookup_through_a_new_child_minimal() {
-    static SAW: AtomicUsize = AtomicUsize::new(0);
-    static MISSED: AtomicUsize = AtomicUsize::new(0);
-    model(|| {
-        let counter = if insert_races_lookup_through_a_new_child::<Minimal>() {
-            &SAW
-        } else {
-            &MISSED
-        };
-        counter.fetch_add(1, Relaxed);
-    });
-    assert!(
-        SAW.load(Relaxed) > 0 && MISSED.load(Relaxed) > 0,
-        "both outcomes must be explored"
-    );
+    let (yes, no) = model_outcomes(insert_races_lookup_through_a_new_child::<Minimal>);
+    assert!(yes > 0, "the lookup never saw the record");
+    assert!(no > 0, "the lookup always saw the record");
 }
 
 #[test]
 fn insert_races_lookup_in_one_list_minimal() {
-    static SAW: AtomicUsize = AtomicUsize::new(0);
-    static MISSED: AtomicUsize = AtomicUsize::new(0);
-    model(|| {
-        let counter = if insert_races_lookup_in_one_list::<Minimal>() {
-            &SAW
-        } else {
-            &MISSED
-        };
-        counter.fetch_add(1, Relaxed);
-    });
-    assert!(
-        SAW.load(Relaxed) > 0 && MISSED.load(Relaxed) > 0,
-        "both outcomes must be explored"
-    );
+    let (yes, no) = model_outcomes(insert_races_lookup_in_one_list::<Minimal>);
+    assert!(yes > 0, "the lookup never saw the record");
+    assert!(no > 0, "the lookup always saw the record");
 }
 
 #[test]
 fn a_later_slot_can_be_published_before_an_earlier_one_minimal() {
-    static OUT_OF_ORDER: AtomicUsize = AtomicUsize::new(0);
-    model(|| {
-        if a_later_slot_can_be_published_before_an_earlier_one::<Minimal>() {
-            OUT_OF_ORDER.fetch_add(1, Relaxed);
-        }
-    });
+    let (yes, no) = model_outcomes(a_later_slot_can_be_published_before_an_earlier_one::<Minimal>);
     assert!(
-        OUT_OF_ORDER.load(Relaxed) > 0,
+        yes > 0,
         "loom never produced slot k+1 published before slot k"
     );
+    assert!(no > 0, "every schedule published out of order");
 }
 
 #[test]

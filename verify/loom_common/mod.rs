@@ -42,6 +42,19 @@ pub fn model(f: impl Fn() + Sync + Send + 'static) -> usize {
     n
 }
 
+/// Runs a model whose body reports an outcome per execution, and returns how many executions gave
+/// `true` and how many `false` (std counters, invisible to loom). Models use it to assert that both
+/// outcomes of a race were explored, so a model cannot pass by never reaching its race.
+pub fn model_outcomes(f: impl Fn() -> bool + Sync + Send + 'static) -> (usize, usize) {
+    use std::sync::atomic::{AtomicUsize, Ordering::Relaxed};
+    let counts = std::sync::Arc::new([AtomicUsize::new(0), AtomicUsize::new(0)]);
+    let c = counts.clone();
+    model(move || {
+        c[usize::from(f())].fetch_add(1, Relaxed);
+    });
+    (counts[1].load(Relaxed), counts[0].load(Relaxed))
+}
+
 /// Runs a model that must fail; returns loom's (or the model's) panic message.
 pub fn expect_failure(f: impl Fn() + Sync + Send + 'static) -> String {
     let hook = std::panic::take_hook();
