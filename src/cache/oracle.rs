@@ -53,13 +53,7 @@ impl BruteForce {
 
     /// The records valid at `point`/`normal`.
     pub fn valid_records(&self, point: Vec3, normal: Vec3) -> Vec<Record> {
-        if !ic::is_valid_query(point, normal) {
-            return Vec::new();
-        }
-        let a = self.config.accuracy();
-        self.records
-            .iter()
-            .filter(|r| ic::valid_weight(r, point, normal, a).is_some())
+        ic::valid_among(&self.records, point, normal, self.config.accuracy())
             .copied()
             .collect()
     }

@@ -49,6 +49,20 @@ pub fn valid_weight(record: &Record, point: Vec3, normal: Vec3, accuracy: f32) -
     (w > 1.0 / f64::from(accuracy) && !is_in_front(record, point, normal)).then_some(w)
 }
 
+/// The records among `records` that are valid for a query at `point` with `normal` at accuracy `a`
+/// (none for a query that is not finite): the brute-force answer the oracles give.
+pub fn valid_among<'r>(
+    records: impl IntoIterator<Item = &'r Record>,
+    point: Vec3,
+    normal: Vec3,
+    accuracy: f32,
+) -> impl Iterator<Item = &'r Record> {
+    let answerable = is_valid_query(point, normal);
+    records
+        .into_iter()
+        .filter(move |r| answerable && valid_weight(r, point, normal, accuracy).is_some())
+}
+
 /// Clamps a harmonic mean distance to `[min, max]`; an infinite or NaN distance (the hemisphere saw
 /// nothing) becomes `max`. This is the record radius the caches store.
 pub fn clamp_radius(harmonic_mean: f32, min: f32, max: f32) -> f32 {

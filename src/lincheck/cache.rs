@@ -119,13 +119,7 @@ impl CacheSpec {
 
     /// Ids of the stored records valid at `point`/`normal`, sorted.
     pub fn valid_ids(&self, point: Vec3, normal: Vec3) -> Vec<RecordId> {
-        if !ic::is_valid_query(point, normal) {
-            return Vec::new();
-        }
-        let a = self.config.accuracy();
-        self.records
-            .iter()
-            .filter(|r| ic::valid_weight(r, point, normal, a).is_some())
+        ic::valid_among(self.records.iter(), point, normal, self.config.accuracy())
             .map(Record::id)
             .collect()
     }
