@@ -64,7 +64,7 @@ impl Machine {
             "no thread count is oversubscribed".to_owned()
         } else {
             format!(
-                "OVERSUBSCRIBED (more threads than cores, time-sliced, not scaling): {} threads",
+                "OVERSUBSCRIBED (time-sliced, not scaling): {} threads",
                 list.join(", ")
             )
         };

@@ -176,12 +176,12 @@ pub fn nice_ticks(max: f64, target: u32) -> (f64, f64) {
 
 /// A tick label: as few decimals as the step needs.
 pub fn tick_label(v: f64, step: f64) -> String {
-    let decimals = if step >= 1.0 {
-        0
-    } else {
-        (-step.log10().floor()) as usize
-            + usize::from((step * 10f64.powf((-step.log10()).floor())).fract() > 1e-6)
-    };
+    let decimals = (0..6)
+        .find(|&d| {
+            let scaled = step * 10f64.powi(d);
+            (scaled - scaled.round()).abs() < 1e-6 * scaled.max(1.0)
+        })
+        .unwrap_or(6) as usize;
     format!("{v:.decimals$}")
 }
 
@@ -284,7 +284,11 @@ impl Panel {
 
         // x axis.
         let ticks: Vec<(f64, String)> = if self.x_ticks.is_empty() {
-            let (xs, _) = nice_ticks(span, 8);
+            let (mut xs, _) = nice_ticks(span, 8);
+            if xs >= 1.0 && xs.fract() != 0.0 {
+                // 2.5 is a round step for values, not for frame numbers.
+                xs *= 0.8;
+            }
             let mut t = Vec::new();
             let mut x = (x0 / xs).ceil() * xs;
             while x <= x1 + xs * 1e-9 {
