@@ -247,7 +247,7 @@ impl Panel {
             draw_text(img, left - 8 - tw, y - 7, &label, BLACK, SCALE);
             v += step;
         }
-        // Axis titles: left above the axis, right above the right axis.
+        // Axis titles, under the bottom-left and bottom-right corners.
         draw_text(img, left - 70, bottom + 34, &self.left_label, BLACK, 1);
 
         // Bars on the right axis.
@@ -271,14 +271,7 @@ impl Panel {
                 v += rstep;
             }
             let tw = i64::from(font::text_width(label, 1));
-            draw_text(
-                img,
-                (ox + w - 6 - tw).max(right),
-                bottom + 34,
-                label,
-                BLACK,
-                1,
-            );
+            draw_text(img, ox + w - 6 - tw, bottom + 34, label, BLACK, 1);
             draw_line(img, (right, top), (right, bottom), BLACK, 1);
         }
 

@@ -93,6 +93,14 @@ impl Measurement {
         self.median(|s| s.ic_samples as f64)
     }
 
+    /// The fastest and slowest run, `min–max` seconds.
+    pub fn range(&self) -> String {
+        let t: Vec<f64> = self.runs.iter().map(|r| r.seconds).collect();
+        let min = t.iter().copied().fold(f64::INFINITY, f64::min);
+        let max = t.iter().copied().fold(0.0, f64::max);
+        format!("{min:.4}–{max:.4}")
+    }
+
     /// The paper's overhead column: lock-wait seconds (LCK), merge seconds (LW), discarded
     /// samples (WF); 0 for TRA.
     pub fn overhead(&self) -> f64 {
@@ -268,10 +276,14 @@ impl Table1 {
                         &format!("WF no slower than {} at 2 threads", heading(rival)),
                         wf.time() <= r.time(),
                         format!(
-                            "WF {:.4} s, {} {:.4} s",
+                            "WF {:.4} s, {} {:.4} s (WF {:+.1}%; runs WF {}, {} {})",
                             wf.time(),
                             heading(rival),
-                            r.time()
+                            r.time(),
+                            100.0 * (wf.time() / r.time() - 1.0),
+                            wf.range(),
+                            heading(rival),
+                            r.range()
                         ),
                     );
                 }
