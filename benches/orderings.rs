@@ -4,7 +4,8 @@
 //! ([`ReadFence`], the read-path barrier the paper avoided). Same code, same workload as
 //! `benches/cache_ops.rs` (`benches/common`): only the orderings differ.
 //!
-//! Groups, each with `minimal`, `seqcst` and `read-fence`:
+//! Groups, each with `minimal`, `seqcst`, `read-fence` and `minimal-again` (a control: `minimal`
+//! measured again after the others, to show the noise floor of the ratios):
 //!
 //! * `orderings/lookup-1t/*` — one thread, one lookup per iteration in the pre-filled cache.
 //! * `orderings/insert-1t/*` — one thread, one insert per iteration, batches of
@@ -33,16 +34,16 @@ use wfic::cache::{CacheHandle, CasFailure, IrradianceCache, WaitFree};
 use wfic::ic::WorkerId;
 
 const GROUPS: [&str; 4] = ["lookup-1t", "insert-1t", "lookup-2t", "insert-2t"];
-const POLICIES: [&str; 3] = ["minimal", "seqcst", "read-fence"];
+const POLICIES: [&str; 4] = ["minimal", "seqcst", "read-fence", "minimal-again"];
 
 fn make<O: Orderings>() -> WaitFree<O> {
     WaitFree::new(workload().config, CasFailure::Adopt)
 }
 
-fn lookup_1t<O: Orderings>(g: &mut BenchmarkGroup<'_, WallTime>) {
+fn lookup_1t<O: Orderings>(g: &mut BenchmarkGroup<'_, WallTime>, id: &str) {
     let w = workload();
     let mut cache = prefilled(make::<O>(), &w.prefill);
-    g.bench_function(O::NAME, |b| {
+    g.bench_function(id, |b| {
         b.iter_custom(|iters| {
             let mut h = cache.handle(WorkerId::new(0));
             let mut i = 0;
@@ -63,10 +64,10 @@ fn lookup_1t<O: Orderings>(g: &mut BenchmarkGroup<'_, WallTime>) {
     });
 }
 
-fn insert_1t<O: Orderings>(g: &mut BenchmarkGroup<'_, WallTime>) {
+fn insert_1t<O: Orderings>(g: &mut BenchmarkGroup<'_, WallTime>, id: &str) {
     let w = workload();
     let batch = &w.fresh[..INSERT_BATCH];
-    g.bench_function(O::NAME, |b| {
+    g.bench_function(id, |b| {
         b.iter_custom(|iters| {
             let mut total = Duration::ZERO;
             let mut left = iters as usize;
@@ -114,10 +115,10 @@ fn two_threads<O: Orderings>(
     end - start
 }
 
-fn lookup_2t<O: Orderings>(g: &mut BenchmarkGroup<'_, WallTime>) {
+fn lookup_2t<O: Orderings>(g: &mut BenchmarkGroup<'_, WallTime>, id: &str) {
     let w = workload();
     let mut cache = prefilled(make::<O>(), &w.prefill);
-    g.bench_function(O::NAME, |b| {
+    g.bench_function(id, |b| {
         b.iter_custom(|iters| {
             let counts = [iters - iters / 2, iters / 2];
             two_threads(&mut cache, &|k, h| {
@@ -136,10 +137,10 @@ fn lookup_2t<O: Orderings>(g: &mut BenchmarkGroup<'_, WallTime>) {
     });
 }
 
-fn insert_2t<O: Orderings>(g: &mut BenchmarkGroup<'_, WallTime>) {
+fn insert_2t<O: Orderings>(g: &mut BenchmarkGroup<'_, WallTime>, id: &str) {
     let w = workload();
     let batch = &w.fresh[..INSERT_BATCH];
-    g.bench_function(O::NAME, |b| {
+    g.bench_function(id, |b| {
         b.iter_custom(|iters| {
             let mut total = Duration::ZERO;
             let mut left = iters as usize;
@@ -167,26 +168,33 @@ fn group<'a>(c: &'a mut Criterion, name: &str) -> BenchmarkGroup<'a, WallTime> {
     g
 }
 
+/// Each group runs `minimal`, `seqcst`, `read-fence`, then `minimal` again (`minimal-again`): the
+/// repeat is a control that shows how much two runs of identical code differ in this position
+/// (heap state, frequency, code layout), i.e. the noise floor of the ratios.
 fn orderings(c: &mut Criterion) {
     let mut g = group(c, "lookup-1t");
-    lookup_1t::<Minimal>(&mut g);
-    lookup_1t::<SeqCstEverywhere>(&mut g);
-    lookup_1t::<ReadFence>(&mut g);
+    lookup_1t::<Minimal>(&mut g, "minimal");
+    lookup_1t::<SeqCstEverywhere>(&mut g, "seqcst");
+    lookup_1t::<ReadFence>(&mut g, "read-fence");
+    lookup_1t::<Minimal>(&mut g, "minimal-again");
     g.finish();
     let mut g = group(c, "insert-1t");
-    insert_1t::<Minimal>(&mut g);
-    insert_1t::<SeqCstEverywhere>(&mut g);
-    insert_1t::<ReadFence>(&mut g);
+    insert_1t::<Minimal>(&mut g, "minimal");
+    insert_1t::<SeqCstEverywhere>(&mut g, "seqcst");
+    insert_1t::<ReadFence>(&mut g, "read-fence");
+    insert_1t::<Minimal>(&mut g, "minimal-again");
     g.finish();
     let mut g = group(c, "lookup-2t");
-    lookup_2t::<Minimal>(&mut g);
-    lookup_2t::<SeqCstEverywhere>(&mut g);
-    lookup_2t::<ReadFence>(&mut g);
+    lookup_2t::<Minimal>(&mut g, "minimal");
+    lookup_2t::<SeqCstEverywhere>(&mut g, "seqcst");
+    lookup_2t::<ReadFence>(&mut g, "read-fence");
+    lookup_2t::<Minimal>(&mut g, "minimal-again");
     g.finish();
     let mut g = group(c, "insert-2t");
-    insert_2t::<Minimal>(&mut g);
-    insert_2t::<SeqCstEverywhere>(&mut g);
-    insert_2t::<ReadFence>(&mut g);
+    insert_2t::<Minimal>(&mut g, "minimal");
+    insert_2t::<SeqCstEverywhere>(&mut g, "seqcst");
+    insert_2t::<ReadFence>(&mut g, "read-fence");
+    insert_2t::<Minimal>(&mut g, "minimal-again");
     g.finish();
 }
 
@@ -213,10 +221,17 @@ fn median_ns(json: &str) -> Option<f64> {
 /// Prints each policy's median over `minimal`'s, per group, from this run's estimates.
 fn print_ratios() {
     let dir = criterion_dir();
-    println!("\nordering ablation: median time per operation, and ratio to `minimal`");
+    println!("\nordering ablation: median time per operation (ns), and ratio to `minimal`");
     println!(
-        "{:<11} {:>12} {:>12} {:>12} {:>14} {:>16}",
-        "group", "minimal ns", "seqcst ns", "fence ns", "seqcst/min", "read-fence/min"
+        "{:<10} {:>9} {:>9} {:>9} {:>9} {:>11} {:>15} {:>18}",
+        "group",
+        "minimal",
+        "seqcst",
+        "fence",
+        "again",
+        "seqcst/min",
+        "read-fence/min",
+        "minimal-again/min"
     );
     for group in GROUPS {
         // Criterion turns the '/' of a group name into '_' in its directory names.
@@ -239,13 +254,15 @@ fn print_ratios() {
             _ => "-".to_owned(),
         };
         println!(
-            "{:<11} {:>12} {:>12} {:>12} {:>14} {:>16}",
+            "{:<10} {:>9} {:>9} {:>9} {:>9} {:>11} {:>15} {:>18}",
             group,
             show(ns[0]),
             show(ns[1]),
             show(ns[2]),
+            show(ns[3]),
             ratio(ns[1]),
-            ratio(ns[2])
+            ratio(ns[2]),
+            ratio(ns[3])
         );
     }
 }
