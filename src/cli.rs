@@ -28,6 +28,12 @@ enum Command {
     /// Render one frame of a built-in scene or an OBJ file with one cache scheme (PNG, PFM,
     /// record overlay, JSON statistics).
     Render(wfic::render::cli::RenderArgs),
+    /// Reproduce the paper's experiments: Table 1 with Figure 1, and the orbit animations
+    /// (Figures 2 and 3).
+    Reproduce {
+        #[command(subcommand)]
+        what: wfic::experiment::cli::ReproduceCommand,
+    },
     /// Fill every cache scheme from several threads with a synthetic renderer-like workload and
     /// print what each did (time, samples, hits, sharing, overheads).
     Demo(DemoArgs),
@@ -62,6 +68,7 @@ pub fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Demo(args) => demo(&args),
+        Command::Reproduce { what } => wfic::experiment::cli::run(what),
         Command::Render(args) => {
             return match wfic::render::cli::run_render(args) {
                 Ok(()) => ExitCode::SUCCESS,

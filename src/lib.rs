@@ -11,12 +11,16 @@
 //! 3. [`cache`] — the four schemes behind [`cache::IrradianceCache`].
 //! 5. `render` — a compact renderer that drives the caches end to end (not built under the
 //!    model checkers).
+//! 6. `experiment` — the paper's experiments (Table 1, Figures 1–3) as code: Markdown, CSV and
+//!    PNG plots (not built under the model checkers).
 //!
 //! The paper mapped to the code, and every deviation from it, is in `paper-notes.md`.
 #![warn(missing_docs)]
 #![deny(unsafe_op_in_unsafe_fn)]
 
 pub mod cache;
+#[cfg(not(checker))]
+pub mod experiment;
 pub mod ic;
 pub mod lincheck;
 #[cfg(not(checker))]

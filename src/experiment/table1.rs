@@ -1,0 +1,671 @@
+//! Table 1 and Figure 1: every scene rendered with an empty cache, TRA on one thread and each
+//! parallel scheme at each thread count, several runs each (medians reported).
+//!
+//! Order of work: scene by scene (each scene built once, its BVH build not timed); inside a scene,
+//! one untimed warm-up frame, then run by run, every configuration once per run, so slow drifts
+//! of the machine spread over all configurations rather than landing on one.
+
+use super::plot::{Bar, Figure, Line, Panel};
+use super::{colour, heading, median, paper, write_file, Machine};
+use crate::render::cli::{render_with_scheme, Scheme};
+use crate::render::{scenes, FrameStats, RenderSettings};
+use std::fmt::Write as _;
+use std::path::Path;
+
+/// What to run.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Table1Config {
+    /// Built-in scene names.
+    pub scenes: Vec<String>,
+    /// Parallel schemes (TRA is always run, on one thread, as the baseline).
+    pub schemes: Vec<Scheme>,
+    /// Thread counts for the parallel schemes.
+    pub threads: Vec<usize>,
+    /// Timed runs per configuration.
+    pub runs: usize,
+    /// Image size and sampling.
+    pub settings: RenderSettings,
+}
+
+impl Table1Config {
+    /// The paper's layout: all five scenes; LCK, LCK-RW, LW, WF, WF-D at 2, 4 and 8 threads.
+    pub fn paper(width: u32, height: u32, runs: usize) -> Self {
+        Self {
+            scenes: scenes::NAMES.iter().map(|s| s.to_string()).collect(),
+            schemes: vec![
+                Scheme::Lck,
+                Scheme::LckRw,
+                Scheme::Lw,
+                Scheme::Wf,
+                Scheme::WfDiscard,
+            ],
+            threads: vec![2, 4, 8],
+            runs,
+            settings: RenderSettings::new(width, height),
+        }
+    }
+
+    /// `(scheme, threads)` of every column, TRA first.
+    pub fn columns(&self) -> Vec<(Scheme, usize)> {
+        let mut cols = vec![(Scheme::Tra, 1)];
+        for &t in &self.threads {
+            for &s in &self.schemes {
+                if s != Scheme::Tra && s != Scheme::None {
+                    cols.push((s, t));
+                }
+            }
+        }
+        cols
+    }
+
+    /// Frames rendered in all (warm-ups included): the progress bar's length.
+    pub fn total_frames(&self) -> usize {
+        self.scenes.len() * (1 + self.runs * self.columns().len())
+    }
+}
+
+/// One configuration's runs.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Measurement {
+    /// Scene name.
+    pub scene: String,
+    /// Scheme.
+    pub scheme: Scheme,
+    /// Threads.
+    pub threads: usize,
+    /// Every run's statistics, in run order.
+    pub runs: Vec<FrameStats>,
+}
+
+impl Measurement {
+    /// The median over runs of `f`.
+    pub fn median(&self, f: impl Fn(&FrameStats) -> f64) -> f64 {
+        median(&self.runs.iter().map(f).collect::<Vec<_>>())
+    }
+
+    /// Median seconds.
+    pub fn time(&self) -> f64 {
+        self.median(|s| s.seconds)
+    }
+
+    /// Median IC samples.
+    pub fn samples(&self) -> f64 {
+        self.median(|s| s.ic_samples as f64)
+    }
+
+    /// The fastest and slowest run, `min–max` seconds.
+    pub fn range(&self) -> String {
+        let t: Vec<f64> = self.runs.iter().map(|r| r.seconds).collect();
+        let min = t.iter().copied().fold(f64::INFINITY, f64::min);
+        let max = t.iter().copied().fold(0.0, f64::max);
+        format!("{min:.4}–{max:.4}")
+    }
+
+    /// The paper's overhead column: lock-wait seconds (LCK), merge seconds (LW), discarded
+    /// samples (WF); 0 for TRA.
+    pub fn overhead(&self) -> f64 {
+        match self.scheme {
+            Scheme::Lck | Scheme::LckRw => self.median(|s| s.lock_wait_seconds),
+            Scheme::Lw => self.median(|s| s.merge_seconds),
+            Scheme::Wf | Scheme::WfDiscard => self.median(|s| s.discarded as f64),
+            Scheme::Tra | Scheme::None => 0.0,
+        }
+    }
+
+    fn overhead_text(&self) -> String {
+        match self.scheme {
+            Scheme::Wf | Scheme::WfDiscard => format!("{}", self.overhead()),
+            Scheme::Tra | Scheme::None => "0".to_owned(),
+            _ => format!("{:.4}", self.overhead()),
+        }
+    }
+}
+
+/// A finished run of Table 1.
+#[derive(Clone, Debug)]
+pub struct Table1 {
+    /// What was run.
+    pub config: Table1Config,
+    /// Where.
+    pub machine: Machine,
+    /// Every configuration, scene by scene in column order.
+    pub measurements: Vec<Measurement>,
+    /// Wall-clock seconds of the whole run.
+    pub seconds: f64,
+}
+
+/// A statement the issue asks to hold, evaluated on a run.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Check {
+    /// Scene.
+    pub scene: String,
+    /// What is claimed.
+    pub claim: String,
+    /// Whether it held.
+    pub holds: bool,
+    /// The figures it was decided on.
+    pub detail: String,
+}
+
+/// Runs the experiment. `progress(label)` is called before every frame (warm-ups included).
+pub fn run(
+    config: &Table1Config,
+    machine: &Machine,
+    progress: &mut dyn FnMut(&str),
+) -> Result<Table1, String> {
+    if config.runs == 0 {
+        return Err("--runs must be at least 1".to_owned());
+    }
+    if config.threads.contains(&0) {
+        return Err("thread counts must be at least 1".to_owned());
+    }
+    let start = std::time::Instant::now();
+    let columns = config.columns();
+    let mut measurements = Vec::new();
+    for name in &config.scenes {
+        let scene = scenes::by_name(name)
+            .ok_or_else(|| {
+                format!(
+                    "unknown scene `{name}` (expected one of: {})",
+                    scenes::NAMES.join(", ")
+                )
+            })?
+            .map_err(|e| format!("{name}: {e}"))?;
+        let cache_config = config
+            .settings
+            .cache_config(&scene)
+            .map_err(|e| format!("{name}: {e}"))?;
+        let camera = scene.camera();
+        // Untimed warm-up: pages, caches and the allocator see a frame before any timed one.
+        progress(&format!("{name} warm-up"));
+        let warm = columns.get(1).copied().unwrap_or((Scheme::Tra, 1));
+        render_with_scheme(
+            warm.0,
+            &scene,
+            &camera,
+            &config.settings,
+            cache_config,
+            warm.1,
+        );
+        let mut runs: Vec<Vec<FrameStats>> = vec![Vec::new(); columns.len()];
+        for run in 0..config.runs {
+            for (i, &(scheme, threads)) in columns.iter().enumerate() {
+                progress(&format!(
+                    "{name} {} {threads}t run {}/{}",
+                    scheme.name(),
+                    run + 1,
+                    config.runs
+                ));
+                let (frame, _) = render_with_scheme(
+                    scheme,
+                    &scene,
+                    &camera,
+                    &config.settings,
+                    cache_config,
+                    threads,
+                );
+                runs[i].push(frame.stats);
+            }
+        }
+        for (&(scheme, threads), runs) in columns.iter().zip(runs) {
+            measurements.push(Measurement {
+                scene: name.clone(),
+                scheme,
+                threads,
+                runs,
+            });
+        }
+    }
+    Ok(Table1 {
+        config: config.clone(),
+        machine: machine.clone(),
+        measurements,
+        seconds: start.elapsed().as_secs_f64(),
+    })
+}
+
+impl Table1 {
+    /// The measurement of `scene`, `scheme`, `threads`.
+    pub fn get(&self, scene: &str, scheme: Scheme, threads: usize) -> Option<&Measurement> {
+        self.measurements
+            .iter()
+            .find(|m| m.scene == scene && m.scheme == scheme && m.threads == threads)
+    }
+
+    /// TRA's median time over `scheme`'s median time.
+    pub fn speedup(&self, m: &Measurement) -> f64 {
+        self.get(&m.scene, Scheme::Tra, 1)
+            .map_or(f64::NAN, |tra| tra.time() / m.time())
+    }
+
+    fn thread_counts(&self) -> Vec<usize> {
+        let mut t = vec![1];
+        t.extend(&self.config.threads);
+        t
+    }
+
+    /// The issue's "what must hold", at 2 threads (real cores on the 2-core machine): WF's
+    /// speed-up over TRA at least 1.8; WF no slower than LCK and LW; LW computes more samples than
+    /// WF; WF (`Adopt`) discards nothing.
+    pub fn checks(&self) -> Vec<Check> {
+        let mut out = Vec::new();
+        for scene in &self.config.scenes {
+            let (Some(wf), Some(_tra)) = (
+                self.get(scene, Scheme::Wf, 2),
+                self.get(scene, Scheme::Tra, 1),
+            ) else {
+                continue;
+            };
+            let mut push = |claim: &str, holds: bool, detail: String| {
+                out.push(Check {
+                    scene: scene.clone(),
+                    claim: claim.to_owned(),
+                    holds,
+                    detail,
+                })
+            };
+            let s = self.speedup(wf);
+            push(
+                "WF speed-up over TRA at 2 threads >= 1.8",
+                s >= 1.8,
+                format!("{s:.3}"),
+            );
+            for rival in [Scheme::Lck, Scheme::Lw] {
+                if let Some(r) = self.get(scene, rival, 2) {
+                    push(
+                        &format!("WF no slower than {} at 2 threads", heading(rival)),
+                        wf.time() <= r.time(),
+                        format!(
+                            "WF {:.4} s, {} {:.4} s (WF {:+.1}%; runs WF {}, {} {})",
+                            wf.time(),
+                            heading(rival),
+                            r.time(),
+                            100.0 * (wf.time() / r.time() - 1.0),
+                            wf.range(),
+                            heading(rival),
+                            r.range()
+                        ),
+                    );
+                }
+            }
+            if let Some(lw) = self.get(scene, Scheme::Lw, 2) {
+                push(
+                    "LW computes more samples than WF at 2 threads",
+                    lw.samples() > wf.samples(),
+                    format!("LW {}, WF {}", lw.samples(), wf.samples()),
+                );
+            }
+            let discarded: u64 = self
+                .measurements
+                .iter()
+                .filter(|m| m.scene == *scene && m.scheme == Scheme::Wf)
+                .flat_map(|m| m.runs.iter().map(|r| r.discarded))
+                .sum();
+            push(
+                "WF (Adopt) discards no sample, any thread count, any run",
+                discarded == 0,
+                format!("{discarded} discarded"),
+            );
+        }
+        out
+    }
+
+    /// `table1.md`: the tables laid out as the paper's Table 1, the paper's figures beside ours,
+    /// and the checks.
+    pub fn markdown(&self, command: &str) -> String {
+        let mut md = String::new();
+        let s = &self.config.settings;
+        let threads = self.thread_counts();
+        let _ = writeln!(md, "# Table 1: still images, empty cache\n");
+        let _ = writeln!(md, "- command: `{command}`");
+        let _ = writeln!(md, "- {}", self.machine.banner(&threads));
+        let _ = writeln!(
+            md,
+            "- image {}x{}, accuracy {}, {} rays per record, {} light samples per pixel, {}-pixel tiles; \
+             {} timed run(s) per column, medians; one untimed warm-up frame per scene; \
+             whole run {:.0} s",
+            s.width,
+            s.height,
+            s.accuracy,
+            s.rays_per_record,
+            s.light_samples,
+            s.tile_size,
+            self.config.runs,
+            self.seconds
+        );
+        let _ = writeln!(
+            md,
+            "- columns marked `*` are oversubscribed (more threads than the {} cores): they \
+             measure time-slicing, not scaling\n",
+            self.machine.cores
+        );
+        let cols = self.config.columns();
+        for scene in &self.config.scenes {
+            let _ = writeln!(md, "## {scene}\n");
+            let mut head = String::from("| |");
+            let mut rule = String::from("|---|");
+            for &(scheme, t) in &cols {
+                let star = if self.machine.oversubscribed(t) {
+                    "*"
+                } else {
+                    ""
+                };
+                let _ = write!(head, " {} {t}{star} |", heading(scheme));
+                rule.push_str("---:|");
+            }
+            let _ = writeln!(md, "{head}\n{rule}");
+            let ms: Vec<&Measurement> = cols
+                .iter()
+                .filter_map(|&(sc, t)| self.get(scene, sc, t))
+                .collect();
+            let row = |label: &str, f: &dyn Fn(&Measurement) -> String| {
+                let mut r = format!("| {label} |");
+                for m in &ms {
+                    let _ = write!(r, " {} |", f(m));
+                }
+                r
+            };
+            let _ = writeln!(md, "{}", row("Time (s)", &|m| format!("{:.3}", m.time())));
+            let _ = writeln!(md, "{}", row("IC samples", &|m| format!("{}", m.samples())));
+            let _ = writeln!(md, "{}", row("Overheads †", &|m| m.overhead_text()));
+            let _ = writeln!(
+                md,
+                "{}",
+                row("Speed-up", &|m| format!("{:.3}", self.speedup(m)))
+            );
+            let _ = writeln!(
+                md,
+                "{}",
+                row("Sharing", &|m| format!(
+                    "{:.0}%",
+                    100.0 * m.median(|s| s.sharing)
+                ))
+            );
+            let _ = writeln!(md);
+            // Beside the paper.
+            if paper::cell(scene, Scheme::Tra, 1).is_some() {
+                let _ = writeln!(
+                    md,
+                    "Beside the paper (8-core Xeon; its 4 and 8 threads were real cores):\n"
+                );
+                let _ = writeln!(
+                    md,
+                    "| column | paper time (s) | ours | paper IC samples | ours | paper overhead † | ours | paper speed-up | ours |"
+                );
+                let _ = writeln!(md, "|---|---:|---:|---:|---:|---:|---:|---:|---:|");
+                for m in &ms {
+                    if let Some(p) = paper::cell(scene, m.scheme, m.threads) {
+                        let star = if self.machine.oversubscribed(m.threads) {
+                            "*"
+                        } else {
+                            ""
+                        };
+                        let _ = writeln!(
+                            md,
+                            "| {} {}{star} | {:.3} | {:.3} | {} | {} | {} | {} | {:.3} | {:.3} |",
+                            heading(m.scheme),
+                            m.threads,
+                            p.time,
+                            m.time(),
+                            p.samples,
+                            m.samples(),
+                            p.overhead,
+                            m.overhead_text(),
+                            p.speedup,
+                            self.speedup(m)
+                        );
+                    }
+                }
+                let _ = writeln!(md);
+            }
+        }
+        let _ = writeln!(
+            md,
+            "† Overheads: lock-wait seconds summed over threads (LCK, LCK-RW), merge seconds (LW), \
+             samples discarded (WF, WF-D). Sharing: hits served by a record another thread computed.\n"
+        );
+        let _ = writeln!(md, "## Checks (2 threads, real cores)\n");
+        let _ = writeln!(md, "| scene | claim | holds | figures |\n|---|---|---|---|");
+        for c in self.checks() {
+            let _ = writeln!(
+                md,
+                "| {} | {} | {} | {} |",
+                c.scene,
+                c.claim,
+                if c.holds { "yes" } else { "**NO**" },
+                c.detail
+            );
+        }
+        md
+    }
+
+    /// `table1.csv`: one row per configuration, medians and every run's time.
+    pub fn csv(&self) -> String {
+        let mut out = String::from(
+            "scene,scheme,threads,cores,oversubscribed,width,height,runs,time_median_s,time_min_s,\
+             time_max_s,times_s,ic_samples_median,lookups_median,hits_median,sharing_median,\
+             lock_wait_s_median,merge_s_median,discarded_median,discarded_total,cache_records_median,\
+             speedup_vs_tra\n",
+        );
+        for m in &self.measurements {
+            let times: Vec<f64> = m.runs.iter().map(|r| r.seconds).collect();
+            let min = times.iter().copied().fold(f64::INFINITY, f64::min);
+            let max = times.iter().copied().fold(0.0, f64::max);
+            let list: Vec<String> = times.iter().map(|t| format!("{t:.4}")).collect();
+            let _ = writeln!(
+                out,
+                "{},{},{},{},{},{},{},{},{:.4},{:.4},{:.4},{},{},{},{},{:.4},{:.5},{:.5},{},{},{},{:.4}",
+                m.scene,
+                m.scheme.name(),
+                m.threads,
+                self.machine.cores,
+                self.machine.oversubscribed(m.threads),
+                self.config.settings.width,
+                self.config.settings.height,
+                m.runs.len(),
+                m.time(),
+                min,
+                max,
+                list.join(";"),
+                m.samples(),
+                m.median(|s| s.lookups as f64),
+                m.median(|s| s.hits as f64),
+                m.median(|s| s.sharing),
+                m.median(|s| s.lock_wait_seconds),
+                m.median(|s| s.merge_seconds),
+                m.median(|s| s.discarded as f64),
+                m.runs.iter().map(|r| r.discarded).sum::<u64>(),
+                m.median(|s| s.cache_records as f64),
+                self.speedup(m),
+            );
+        }
+        out
+    }
+
+    /// Figure 1: one panel per scene, time per scheme as lines (left axis), speed-up over TRA as
+    /// bars (right axis), x = threads; oversubscribed thread counts shaded.
+    pub fn figure(&self) -> Figure {
+        let threads = self.thread_counts();
+        let xs: Vec<f64> = (0..threads.len()).map(|i| i as f64).collect();
+        let schemes: Vec<Scheme> = self
+            .config
+            .schemes
+            .iter()
+            .copied()
+            .filter(|s| *s != Scheme::Tra && *s != Scheme::None)
+            .collect();
+        let bar_w = 0.8 / (schemes.len().max(1) as f64);
+        let mut panels = Vec::new();
+        for scene in &self.config.scenes {
+            let tra = self.get(scene, Scheme::Tra, 1);
+            let mut lines = Vec::new();
+            let mut bars = Vec::new();
+            let mut legend = vec![("TRA".to_owned(), colour(Scheme::Tra))];
+            if let Some(tra) = tra {
+                lines.push(Line {
+                    label: "TRA".into(),
+                    colour: colour(Scheme::Tra),
+                    points: vec![(0.0, tra.time())],
+                    markers: true,
+                });
+                bars.push(Bar {
+                    x: 0.0,
+                    width: bar_w,
+                    value: 1.0,
+                    colour: colour(Scheme::Tra),
+                });
+            }
+            for (k, &scheme) in schemes.iter().enumerate() {
+                legend.push((heading(scheme).to_owned(), colour(scheme)));
+                let mut points = Vec::new();
+                for (i, &t) in threads.iter().enumerate().skip(1) {
+                    if let Some(m) = self.get(scene, scheme, t) {
+                        points.push((xs[i], m.time()));
+                        let off = (k as f64 - (schemes.len() as f64 - 1.0) / 2.0) * bar_w;
+                        bars.push(Bar {
+                            x: xs[i] + off,
+                            width: bar_w * 0.9,
+                            value: self.speedup(m),
+                            colour: colour(scheme),
+                        });
+                    }
+                }
+                lines.push(Line {
+                    label: heading(scheme).into(),
+                    colour: colour(scheme),
+                    points,
+                    markers: true,
+                });
+            }
+            let first_over = threads.iter().position(|&t| self.machine.oversubscribed(t));
+            let shaded = first_over
+                .map(|i| {
+                    vec![(
+                        xs[i] - 0.5,
+                        xs.len() as f64 - 0.5,
+                        format!("OVERSUBSCRIBED: > {} CORES", self.machine.cores),
+                    )]
+                })
+                .unwrap_or_default();
+            panels.push(Panel {
+                title: scene.to_uppercase(),
+                x_range: (-0.5, xs.len() as f64 - 0.5),
+                x_ticks: threads
+                    .iter()
+                    .enumerate()
+                    .map(|(i, t)| {
+                        let star = if self.machine.oversubscribed(*t) {
+                            "*"
+                        } else {
+                            ""
+                        };
+                        (xs[i], format!("{t}{star}"))
+                    })
+                    .collect(),
+                x_label: "THREADS".into(),
+                left_label: "LINES: TIME (S)".into(),
+                left_max: None,
+                lines,
+                right_label: Some("BARS: SPEED-UP VS TRA".into()),
+                bars,
+                shaded,
+                legend,
+                note: None,
+            });
+        }
+        let s = &self.config.settings;
+        Figure {
+            header: vec![
+                format!(
+                    "FIGURE 1 (REPRODUCED): STILL IMAGES, EMPTY CACHE, {}X{}, MEDIAN OF {} RUN(S)",
+                    s.width, s.height, self.config.runs
+                ),
+                self.machine.banner(&threads),
+            ],
+            panels,
+            columns: self.config.scenes.len().clamp(1, 2),
+            panel_size: (760, 520),
+        }
+    }
+
+    /// Writes `table1.md`, `table1.csv` and `figure1.png` into `dir`.
+    pub fn write(&self, dir: &Path, command: &str) -> Result<(), String> {
+        std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+        write_file(&dir.join("table1.md"), &self.markdown(command))?;
+        write_file(&dir.join("table1.csv"), &self.csv())?;
+        self.figure().write_png(&dir.join("figure1.png"))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn tiny() -> Table1Config {
+        let mut c = Table1Config::paper(24, 24, 2);
+        c.scenes = vec!["cornell".into()];
+        c.schemes = vec![Scheme::Lck, Scheme::Lw, Scheme::Wf, Scheme::WfDiscard];
+        c.threads = vec![2, 3];
+        c.settings = c.settings.rays_per_record(16).light_samples(1);
+        c
+    }
+
+    #[test]
+    fn columns_put_tra_first_then_each_scheme_per_thread_count() {
+        let c = tiny();
+        let cols = c.columns();
+        assert_eq!(cols[0], (Scheme::Tra, 1));
+        assert_eq!(cols.len(), 1 + 4 * 2);
+        assert_eq!(cols[1], (Scheme::Lck, 2));
+        assert_eq!(cols[5], (Scheme::Lck, 3));
+        assert_eq!(c.total_frames(), 1 + 2 * 9);
+    }
+
+    #[test]
+    fn a_tiny_run_writes_the_table_csv_and_figure() {
+        let config = tiny();
+        let machine = Machine {
+            cores: 2,
+            cpu: "test".into(),
+        };
+        let mut calls = 0;
+        let t = run(&config, &machine, &mut |_| calls += 1).unwrap();
+        assert_eq!(calls, config.total_frames());
+        assert_eq!(t.measurements.len(), 9);
+        assert!(t.measurements.iter().all(|m| m.runs.len() == 2));
+        let tra = t.get("cornell", Scheme::Tra, 1).unwrap();
+        assert!(tra.samples() > 0.0);
+        assert!((t.speedup(tra) - 1.0).abs() < 1e-12);
+        // WF (Adopt) never discards; the check says so.
+        let checks = t.checks();
+        assert!(checks
+            .iter()
+            .any(|c| c.claim.starts_with("WF (Adopt)") && c.holds));
+        assert!(checks.iter().any(|c| c.claim.starts_with("WF speed-up")));
+
+        let dir = std::env::temp_dir().join(format!("wfic-table1-{}", std::process::id()));
+        t.write(&dir, "wfic reproduce table1 (test)").unwrap();
+        let md = std::fs::read_to_string(dir.join("table1.md")).unwrap();
+        assert!(
+            md.contains("| | TRA 1 | LCK 2 | LW 2 | WF 2 | WF-D 2 | LCK 3* |"),
+            "{md}"
+        );
+        assert!(md.contains("OVERSUBSCRIBED"));
+        assert!(md.contains("Beside the paper"));
+        assert!(
+            md.contains("| WF 2 | 1.614 |"),
+            "paper's Cornell WF column: {md}"
+        );
+        let csv = std::fs::read_to_string(dir.join("table1.csv")).unwrap();
+        assert_eq!(csv.lines().count(), 1 + 9);
+        assert!(csv
+            .lines()
+            .nth(1)
+            .unwrap()
+            .starts_with("cornell,tra,1,2,false,24,24,2,"));
+        assert!(csv.contains("cornell,wf,3,2,true,"));
+        let png = image::open(dir.join("figure1.png")).unwrap();
+        assert!(png.width() >= 760 && png.height() > 520);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}

@@ -1,0 +1,127 @@
+//! `wfic reproduce table1` and `wfic reproduce animation` through the binary, on tiny images.
+#![cfg(not(checker))]
+
+use std::path::PathBuf;
+use std::process::Command;
+
+fn temp_dir(tag: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("wfic-reproduce-{tag}-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn wfic(args: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_wfic"))
+        .args(args)
+        .output()
+        .expect("wfic runs")
+}
+
+#[test]
+fn table1_writes_markdown_csv_and_figure_and_names_the_machine() {
+    let dir = temp_dir("table1");
+    let out = wfic(&[
+        "reproduce",
+        "table1",
+        "--scenes",
+        "cornell,office",
+        "--schemes",
+        "lck,lw,wf",
+        "--threads",
+        "2,3",
+        "--runs",
+        "1",
+        "--width",
+        "24",
+        "--rays-per-record",
+        "16",
+        "--out-dir",
+        dir.to_str().unwrap(),
+    ]);
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    assert!(
+        stdout.starts_with(&format!("machine: {cores} cores")),
+        "{stdout}"
+    );
+    let md = std::fs::read_to_string(dir.join("table1.md")).unwrap();
+    assert!(md.contains("## cornell") && md.contains("## office"));
+    assert!(md.contains("- command: `wfic reproduce table1 --scenes cornell,office"));
+    assert!(md.contains("## Checks"));
+    let csv = std::fs::read_to_string(dir.join("table1.csv")).unwrap();
+    // Per scene: TRA + 3 schemes x 2 thread counts.
+    assert_eq!(csv.lines().count(), 1 + 2 * 7);
+    assert!(image::open(dir.join("figure1.png")).unwrap().width() > 1000);
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn animation_writes_one_row_per_scheme_and_frame() {
+    let dir = temp_dir("anim");
+    let out = wfic(&[
+        "reproduce",
+        "animation",
+        "--scene",
+        "cornell",
+        "--frames",
+        "3",
+        "--threads",
+        "2",
+        "--schemes",
+        "tra,wf",
+        "--width",
+        "24",
+        "--rays-per-record",
+        "16",
+        "--out-dir",
+        dir.to_str().unwrap(),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let csv = std::fs::read_to_string(dir.join("animation-cornell.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 1 + 2 * 3);
+    assert!(csv.contains("\ncornell,tra,1,"));
+    assert!(csv.contains("\ncornell,wf,2,"));
+    assert!(dir.join("animation-cornell.png").metadata().unwrap().len() > 0);
+    assert!(dir.join("animation-cornell.md").exists());
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn bad_input_is_refused_with_exit_code_2() {
+    let dir = temp_dir("bad");
+    let d = dir.to_str().unwrap();
+    for args in [
+        vec!["reproduce", "table1", "--scenes", "atrium", "--out-dir", d],
+        vec!["reproduce", "table1", "--runs", "0", "--out-dir", d],
+        vec!["reproduce", "table1", "--threads", "0", "--out-dir", d],
+        vec!["reproduce", "animation", "--frames", "0", "--out-dir", d],
+        vec!["reproduce", "animation", "--scheme", "none", "--out-dir", d],
+        vec![
+            "reproduce",
+            "animation",
+            "--schemes",
+            "none",
+            "--width",
+            "8",
+            "--out-dir",
+            d,
+        ],
+    ] {
+        let out = wfic(&args);
+        assert_eq!(out.status.code(), Some(2), "{args:?}");
+        assert!(!String::from_utf8_lossy(&out.stderr).is_empty(), "{args:?}");
+    }
+    let out = wfic(&["reproduce", "table1", "--scenes", "atrium", "--out-dir", d]);
+    assert!(String::from_utf8_lossy(&out.stderr).contains("atrium"));
+    assert!(!dir.join("table1.md").exists());
+    std::fs::remove_dir_all(&dir).ok();
+}
