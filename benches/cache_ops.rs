@@ -78,66 +78,6 @@ fn wf_readfence(c: CacheConfig) -> WaitFree<ReadFence> {
 // lookup/* and insert/*: one thread
 // ---------------------------------------------------------------------------------------------
 
-/// One lookup per iteration, cycling through the queries, in one pre-filled cache.
-fn bench_lookup<C: IrradianceCache>(
-    g: &mut BenchmarkGroup<'_, WallTime>,
-    id: &str,
-    make: fn(CacheConfig) -> C,
-) {
-    let w = workload();
-    let mut cache = prefilled(make(w.config), &w.prefill);
-    g.bench_function(id, |b| {
-        b.iter_custom(|iters| {
-            let mut h = cache.handle(WorkerId::new(0));
-            let mut i = 0;
-            let start = Instant::now();
-            for _ in 0..iters {
-                let (p, n) = w.queries[i];
-                black_box(h.lookup(black_box(p), black_box(n)));
-                i += 1;
-                if i == w.queries.len() {
-                    i = 0;
-                }
-            }
-            let elapsed = start.elapsed();
-            let residue = h.finish();
-            cache.end_frame(vec![residue]);
-            elapsed
-        })
-    });
-}
-
-/// One insert per iteration: batches of `INSERT_BATCH` fresh records, each into a freshly
-/// pre-filled cache; only the inserts are timed.
-fn bench_insert<C: IrradianceCache>(
-    g: &mut BenchmarkGroup<'_, WallTime>,
-    id: &str,
-    make: fn(CacheConfig) -> C,
-) {
-    let w = workload();
-    let batch = &w.fresh[..INSERT_BATCH];
-    g.bench_function(id, |b| {
-        b.iter_custom(|iters| {
-            let mut total = Duration::ZERO;
-            let mut left = iters as usize;
-            while left > 0 {
-                let n = left.min(INSERT_BATCH);
-                let cache = prefilled(make(w.config), &w.prefill);
-                let mut h = cache.handle(WorkerId::new(0));
-                let start = Instant::now();
-                for r in &batch[..n] {
-                    let _ = black_box(h.insert(black_box(*r)));
-                }
-                total += start.elapsed();
-                drop(h.finish());
-                // The cache is dropped here, outside the timing.
-                left -= n;
-            }
-            total
-        })
-    });
-}
-
 fn lookups(c: &mut Criterion) {
     let mut g = c.benchmark_group("lookup");
     configure(&mut g);

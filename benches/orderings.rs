@@ -41,51 +41,11 @@ fn make<O: Orderings>() -> WaitFree<O> {
 }
 
 fn lookup_1t<O: Orderings>(g: &mut BenchmarkGroup<'_, WallTime>, id: &str) {
-    let w = workload();
-    let mut cache = prefilled(make::<O>(), &w.prefill);
-    g.bench_function(id, |b| {
-        b.iter_custom(|iters| {
-            let mut h = cache.handle(WorkerId::new(0));
-            let mut i = 0;
-            let start = Instant::now();
-            for _ in 0..iters {
-                let (p, n) = w.queries[i];
-                black_box(h.lookup(black_box(p), black_box(n)));
-                i += 1;
-                if i == w.queries.len() {
-                    i = 0;
-                }
-            }
-            let elapsed = start.elapsed();
-            let residue = h.finish();
-            cache.end_frame(vec![residue]);
-            elapsed
-        })
-    });
+    bench_lookup(g, id, |c| WaitFree::<O>::new(c, CasFailure::Adopt));
 }
 
 fn insert_1t<O: Orderings>(g: &mut BenchmarkGroup<'_, WallTime>, id: &str) {
-    let w = workload();
-    let batch = &w.fresh[..INSERT_BATCH];
-    g.bench_function(id, |b| {
-        b.iter_custom(|iters| {
-            let mut total = Duration::ZERO;
-            let mut left = iters as usize;
-            while left > 0 {
-                let n = left.min(INSERT_BATCH);
-                let cache = prefilled(make::<O>(), &w.prefill);
-                let mut h = cache.handle(WorkerId::new(0));
-                let start = Instant::now();
-                for r in &batch[..n] {
-                    let _ = black_box(h.insert(black_box(*r)));
-                }
-                total += start.elapsed();
-                let _ = h.finish();
-                left -= n;
-            }
-            total
-        })
-    });
+    bench_insert(g, id, |c| WaitFree::<O>::new(c, CasFailure::Adopt));
 }
 
 /// Two workers released by a barrier, each running `work(worker, handle)`; returns the time from
