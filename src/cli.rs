@@ -93,14 +93,7 @@ fn demo(args: &DemoArgs) -> Result<(), String> {
         return Err(format!("--accuracy {} is not in (0, 2]", args.accuracy));
     }
     let schemes = if args.scheme.is_empty() {
-        vec![
-            Scheme::Tra,
-            Scheme::Lck,
-            Scheme::LckRw,
-            Scheme::Lw,
-            Scheme::Wf,
-            Scheme::WfDiscard,
-        ]
+        Scheme::CACHED.to_vec()
     } else {
         args.scheme.clone()
     };

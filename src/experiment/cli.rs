@@ -175,14 +175,7 @@ pub fn run(command: ReproduceCommand) -> Result<(), String> {
             check_rays(a.rays_per_record)?;
             let (w, h) = size(a.width, a.height)?;
             let schemes = if a.schemes.is_empty() {
-                vec![
-                    Scheme::Tra,
-                    Scheme::Lck,
-                    Scheme::LckRw,
-                    Scheme::Lw,
-                    Scheme::Wf,
-                    Scheme::WfDiscard,
-                ]
+                Scheme::CACHED.to_vec()
             } else {
                 a.schemes.clone()
             };

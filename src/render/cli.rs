@@ -38,6 +38,16 @@ pub enum Scheme {
 }
 
 impl Scheme {
+    /// Every scheme that is a cache (all but `None`), in the order tables list them.
+    pub const CACHED: [Scheme; 6] = [
+        Scheme::Tra,
+        Scheme::Lck,
+        Scheme::LckRw,
+        Scheme::Lw,
+        Scheme::Wf,
+        Scheme::WfDiscard,
+    ];
+
     /// The scheme's name.
     pub fn name(self) -> &'static str {
         match self {

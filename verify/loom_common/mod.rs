@@ -148,6 +148,21 @@ impl Go {
         self.0.store(true, Ordering::Relaxed);
     }
 
+    /// Spawns `f` as the racing thread (signalling first), then lets the caller go on: the caller's
+    /// next operation races with `f`, and loom also explores `f` running first.
+    pub fn race<T: 'static>(
+        f: impl FnOnce() -> T + Send + 'static,
+    ) -> wfic::sync::thread::JoinHandle<T> {
+        let go = Go::new();
+        let g = go.clone();
+        let t = wfic::sync::thread::spawn(move || {
+            g.signal();
+            f()
+        });
+        go.peek();
+        t
+    }
+
     /// Called by the other thread just before its racing operation.
     pub fn peek(&self) -> bool {
         // Relaxed: as above.

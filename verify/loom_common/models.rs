@@ -38,13 +38,8 @@ pub fn two_inserts_into_one_list<O: Orderings>() {
 /// lost race discards exactly one.
 pub fn two_inserts_race_to_create_one_child<O: Orderings>(policy: CasFailure) -> bool {
     let cache = wf::<O>(policy);
-    let (c, go) = (cache.clone(), Go::new());
-    let g = go.clone();
-    let t = thread::spawn(move || {
-        g.signal();
-        insert_one(&*c, 1, child_record(0.0))
-    });
-    go.peek();
+    let c = cache.clone();
+    let t = Go::race(move || insert_one(&*c, 1, child_record(0.0)));
     let mine = insert_one(&*cache, 0, child_record(0.2));
     let theirs = t.join().unwrap();
     let lost = mine.2 + theirs.2;
@@ -84,13 +79,8 @@ pub fn two_inserts_race_to_create_one_child<O: Orderings>(policy: CasFailure) ->
 /// record, whole: never a half-built subtree. Returns whether it found the record.
 pub fn insert_races_lookup_through_a_new_child<O: Orderings>() -> bool {
     let cache = wf::<O>(CasFailure::Adopt);
-    let (c, go) = (cache.clone(), Go::new());
-    let g = go.clone();
-    let t = thread::spawn(move || {
-        g.signal();
-        insert_one(&*c, 1, child_record(0.0))
-    });
-    go.peek();
+    let c = cache.clone();
+    let t = Go::race(move || insert_one(&*c, 1, child_record(0.0)));
     let found = valid_at(&*cache, 0, child_record(0.0).position);
     assert!(found.len() <= 1);
     let saw = found.first().is_some_and(|r| {
@@ -106,13 +96,8 @@ pub fn insert_races_lookup_through_a_new_child<O: Orderings>() -> bool {
 /// Returns whether it found the record.
 pub fn insert_races_lookup_in_one_list<O: Orderings>() -> bool {
     let cache = wf::<O>(CasFailure::Adopt);
-    let (c, go) = (cache.clone(), Go::new());
-    let g = go.clone();
-    let t = thread::spawn(move || {
-        g.signal();
-        insert_one(&*c, 1, root_record(0.0))
-    });
-    go.peek();
+    let c = cache.clone();
+    let t = Go::race(move || insert_one(&*c, 1, root_record(0.0)));
     let found = valid_at(&*cache, 0, Vec3::splat(2.0));
     assert!(found.len() <= 1);
     assert!(found
