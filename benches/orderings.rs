@@ -4,8 +4,10 @@
 //! ([`ReadFence`], the read-path barrier the paper avoided). Same code, same workload as
 //! `benches/cache_ops.rs` (`benches/common`): only the orderings differ.
 //!
-//! Groups, each with `minimal`, `seqcst`, `read-fence` and `minimal-again` (a control: `minimal`
-//! measured again after the others, to show the noise floor of the ratios):
+//! Groups, each with `minimal`, `seqcst`, `read-fence` and two controls: `minimal-copy`
+//! ([`MinimalControl`]: the same orderings under another type, so a second copy of the same
+//! machine code at another address; it measures what code placement alone does) and
+//! `minimal-again` (`minimal` measured again after the others: the noise floor of one position):
 //!
 //! * `orderings/lookup-1t/*` — one thread, one lookup per iteration in the pre-filled cache.
 //! * `orderings/insert-1t/*` — one thread, one insert per iteration, batches of
@@ -29,12 +31,18 @@ use std::path::PathBuf;
 use std::sync::Barrier;
 use std::thread;
 use std::time::{Duration, Instant};
-use wfic::cache::wf::{Minimal, Orderings, ReadFence, SeqCstEverywhere};
+use wfic::cache::wf::{Minimal, MinimalControl, Orderings, ReadFence, SeqCstEverywhere};
 use wfic::cache::{CacheHandle, CasFailure, IrradianceCache, WaitFree};
 use wfic::ic::WorkerId;
 
 const GROUPS: [&str; 4] = ["lookup-1t", "insert-1t", "lookup-2t", "insert-2t"];
-const POLICIES: [&str; 4] = ["minimal", "seqcst", "read-fence", "minimal-again"];
+const POLICIES: [&str; 5] = [
+    "minimal",
+    "seqcst",
+    "read-fence",
+    "minimal-copy",
+    "minimal-again",
+];
 
 fn make<O: Orderings>() -> WaitFree<O> {
     WaitFree::new(workload().config, CasFailure::Adopt)
@@ -128,32 +136,37 @@ fn group<'a>(c: &'a mut Criterion, name: &str) -> BenchmarkGroup<'a, WallTime> {
     g
 }
 
-/// Each group runs `minimal`, `seqcst`, `read-fence`, then `minimal` again (`minimal-again`): the
-/// repeat is a control that shows how much two runs of identical code differ in this position
-/// (heap state, frequency, code layout), i.e. the noise floor of the ratios.
+/// Each group runs `minimal`, `seqcst`, `read-fence`, `minimal-copy`, then `minimal` again
+/// (`minimal-again`). The repeat shows how much two runs of the very same code differ (heap state,
+/// frequency): the noise floor of the ratios. The copy shows what a second, identical copy of the
+/// code at another address costs: the part of a ratio that is code placement, not ordering.
 fn orderings(c: &mut Criterion) {
     let mut g = group(c, "lookup-1t");
     lookup_1t::<Minimal>(&mut g, "minimal");
     lookup_1t::<SeqCstEverywhere>(&mut g, "seqcst");
     lookup_1t::<ReadFence>(&mut g, "read-fence");
+    lookup_1t::<MinimalControl>(&mut g, "minimal-copy");
     lookup_1t::<Minimal>(&mut g, "minimal-again");
     g.finish();
     let mut g = group(c, "insert-1t");
     insert_1t::<Minimal>(&mut g, "minimal");
     insert_1t::<SeqCstEverywhere>(&mut g, "seqcst");
     insert_1t::<ReadFence>(&mut g, "read-fence");
+    insert_1t::<MinimalControl>(&mut g, "minimal-copy");
     insert_1t::<Minimal>(&mut g, "minimal-again");
     g.finish();
     let mut g = group(c, "lookup-2t");
     lookup_2t::<Minimal>(&mut g, "minimal");
     lookup_2t::<SeqCstEverywhere>(&mut g, "seqcst");
     lookup_2t::<ReadFence>(&mut g, "read-fence");
+    lookup_2t::<MinimalControl>(&mut g, "minimal-copy");
     lookup_2t::<Minimal>(&mut g, "minimal-again");
     g.finish();
     let mut g = group(c, "insert-2t");
     insert_2t::<Minimal>(&mut g, "minimal");
     insert_2t::<SeqCstEverywhere>(&mut g, "seqcst");
     insert_2t::<ReadFence>(&mut g, "read-fence");
+    insert_2t::<MinimalControl>(&mut g, "minimal-copy");
     insert_2t::<Minimal>(&mut g, "minimal-again");
     g.finish();
 }
@@ -183,14 +196,16 @@ fn print_ratios() {
     let dir = criterion_dir();
     println!("\nordering ablation: median time per operation (ns), and ratio to `minimal`");
     println!(
-        "{:<10} {:>9} {:>9} {:>9} {:>9} {:>11} {:>15} {:>18}",
+        "{:<10} {:>9} {:>9} {:>9} {:>9} {:>9} {:>11} {:>15} {:>17} {:>18}",
         "group",
         "minimal",
         "seqcst",
         "fence",
+        "copy",
         "again",
         "seqcst/min",
         "read-fence/min",
+        "minimal-copy/min",
         "minimal-again/min"
     );
     for group in GROUPS {
@@ -214,15 +229,17 @@ fn print_ratios() {
             _ => "-".to_owned(),
         };
         println!(
-            "{:<10} {:>9} {:>9} {:>9} {:>9} {:>11} {:>15} {:>18}",
+            "{:<10} {:>9} {:>9} {:>9} {:>9} {:>9} {:>11} {:>15} {:>17} {:>18}",
             group,
             show(ns[0]),
             show(ns[1]),
             show(ns[2]),
             show(ns[3]),
+            show(ns[4]),
             ratio(ns[1]),
             ratio(ns[2]),
-            ratio(ns[3])
+            ratio(ns[3]),
+            ratio(ns[4])
         );
     }
 }

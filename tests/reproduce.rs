@@ -103,6 +103,26 @@ fn bad_input_is_refused_with_exit_code_2() {
         vec!["reproduce", "table1", "--scenes", "atrium", "--out-dir", d],
         vec!["reproduce", "table1", "--runs", "0", "--out-dir", d],
         vec!["reproduce", "table1", "--threads", "0", "--out-dir", d],
+        vec!["reproduce", "table1", "--spp", "0", "--out-dir", d],
+        vec![
+            "reproduce",
+            "table1",
+            "--light-samples",
+            "0",
+            "--out-dir",
+            d,
+        ],
+        vec![
+            "reproduce",
+            "table1",
+            "--runs",
+            "4",
+            "--paired-runs",
+            "3",
+            "--out-dir",
+            d,
+        ],
+        vec!["reproduce", "animation", "--spp", "0", "--out-dir", d],
         vec!["reproduce", "animation", "--frames", "0", "--out-dir", d],
         vec!["reproduce", "animation", "--scheme", "none", "--out-dir", d],
         vec![
@@ -122,6 +142,8 @@ fn bad_input_is_refused_with_exit_code_2() {
     }
     let out = wfic(&["reproduce", "table1", "--scenes", "atrium", "--out-dir", d]);
     assert!(String::from_utf8_lossy(&out.stderr).contains("atrium"));
+    let out = wfic(&["reproduce", "table1", "--spp", "0", "--out-dir", d]);
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--spp must be at least 1"));
     assert!(!dir.join("table1.md").exists());
     std::fs::remove_dir_all(&dir).ok();
 }

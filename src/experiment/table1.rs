@@ -2,8 +2,16 @@
 //! parallel scheme at each thread count, several runs each (medians reported).
 //!
 //! Order of work: scene by scene (each scene built once, its BVH build not timed); inside a scene,
-//! one untimed warm-up frame, then run by run, every configuration once per run, so slow drifts
-//! of the machine spread over all configurations rather than landing on one.
+//! one untimed warm-up frame, then round by round, every configuration once per round, so slow
+//! drifts of the machine spread over all configurations rather than landing on one. Odd rounds
+//! run the columns in reverse order, so no column always follows the same neighbour.
+//!
+//! The checks compare WF with LCK and LW at 2 threads, where the difference is a fraction of a
+//! percent and one run's noise is a few percent. Those three columns therefore run
+//! [`Table1Config::paired_runs`] rounds (more than the others), and each comparison is made on
+//! the per-round ratios `WF_r / rival_r` (the two frames of a round are seconds apart, so they
+//! share the machine's state): their median, with a distribution-free confidence interval from
+//! order statistics ([`paired_ratio`]).
 
 use super::plot::{Bar, Figure, Line, Panel};
 use super::{colour, heading, median, paper, write_file, Machine};
@@ -23,6 +31,9 @@ pub struct Table1Config {
     pub threads: Vec<usize>,
     /// Timed runs per configuration.
     pub runs: usize,
+    /// Timed runs (rounds) of the columns the checks compare: LCK, LW and WF at
+    /// [`CHECK_THREADS`] threads. At least `runs`; the extra rounds render only those columns.
+    pub paired_runs: usize,
     /// Image size and sampling.
     pub settings: RenderSettings,
 }
@@ -41,6 +52,7 @@ impl Table1Config {
             ],
             threads: vec![2, 4, 8],
             runs,
+            paired_runs: runs,
             settings: RenderSettings::new(width, height),
         }
     }
@@ -58,9 +70,117 @@ impl Table1Config {
         cols
     }
 
+    /// Whether the checks compare column `(scheme, threads)` (it gets [`Self::paired_runs`]).
+    pub fn is_paired(&self, scheme: Scheme, threads: usize) -> bool {
+        threads == CHECK_THREADS && PAIRED.contains(&scheme)
+    }
+
+    /// Rounds in all: `max(runs, paired_runs)`.
+    pub fn rounds(&self) -> usize {
+        self.runs.max(self.paired_runs)
+    }
+
+    /// The columns rendered in round `round` (0-based), in the order they are rendered.
+    pub fn round_columns(&self, round: usize) -> Vec<(usize, (Scheme, usize))> {
+        let mut cols: Vec<(usize, (Scheme, usize))> = self
+            .columns()
+            .into_iter()
+            .enumerate()
+            .filter(|&(_, (s, t))| round < self.runs || self.is_paired(s, t))
+            .collect();
+        if round % 2 == 1 {
+            cols.reverse();
+        }
+        cols
+    }
+
     /// Frames rendered in all (warm-ups included): the progress bar's length.
     pub fn total_frames(&self) -> usize {
-        self.scenes.len() * (1 + self.runs * self.columns().len())
+        let per_scene: usize = (0..self.rounds())
+            .map(|r| self.round_columns(r).len())
+            .sum();
+        self.scenes.len() * (1 + per_scene)
+    }
+}
+
+/// The thread count the checks are made at: the 2 real cores of the machine the issue targets.
+pub const CHECK_THREADS: usize = 2;
+
+/// The schemes whose [`CHECK_THREADS`] columns the checks compare.
+const PAIRED: [Scheme; 3] = [Scheme::Lck, Scheme::Lw, Scheme::Wf];
+
+/// The median of the per-round ratios `a_r / b_r` and a distribution-free confidence interval
+/// for it: the `k`-th smallest and `k`-th largest ratio, with `k` the largest index whose
+/// two-sided coverage `1 - 2 P(Bin(n, 1/2) < k)` is at least 95% (Conover, *Practical
+/// Nonparametric Statistics*, §3.2). Rounds missing from either side are skipped.
+pub fn paired_ratio(a: &[f64], b: &[f64]) -> Option<PairedRatio> {
+    let mut q: Vec<f64> = a.iter().zip(b).map(|(x, y)| x / y).collect();
+    q.retain(|x| x.is_finite());
+    let n = q.len();
+    if n == 0 {
+        return None;
+    }
+    q.sort_by(f64::total_cmp);
+    // P(Bin(n, 1/2) <= j) for every j, in exact binomial coefficients (n is small).
+    let mut cdf = Vec::with_capacity(n + 1);
+    let (mut c, mut acc) = (1.0f64, 0.0f64);
+    for j in 0..=n {
+        if j > 0 {
+            c = c * (n + 1 - j) as f64 / j as f64;
+        }
+        acc += c;
+        cdf.push(acc / 2f64.powi(n as i32));
+    }
+    // Largest k >= 1 with 1 - 2 P(X <= k-1) >= 0.95; none when n is too small (n < 6).
+    let k = (1..=n / 2).rev().find(|&k| 1.0 - 2.0 * cdf[k - 1] >= 0.95);
+    let (lo, hi, coverage) = match k {
+        Some(k) => (q[k - 1], q[n - k], 1.0 - 2.0 * cdf[k - 1]),
+        None => (q[0], q[n - 1], 1.0 - 2.0 * cdf[0]),
+    };
+    Some(PairedRatio {
+        median: median(&q),
+        lo,
+        hi,
+        coverage,
+        n,
+    })
+}
+
+/// The result of [`paired_ratio`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PairedRatio {
+    /// Median of the per-round ratios.
+    pub median: f64,
+    /// Lower end of the interval.
+    pub lo: f64,
+    /// Upper end of the interval.
+    pub hi: f64,
+    /// The interval's exact coverage (at least 0.95 when `n >= 6`).
+    pub coverage: f64,
+    /// Rounds compared.
+    pub n: usize,
+}
+
+/// How a check came out.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Verdict {
+    /// It holds.
+    Yes,
+    /// A timing comparison whose median is on the wrong side of 1 by less than the noise: the
+    /// confidence interval of the paired ratio contains 1, so the runs cannot tell the two apart.
+    Tie,
+    /// It does not hold (for a timing comparison: the whole interval is on the wrong side).
+    No,
+}
+
+impl Verdict {
+    /// `yes`, `tie (within noise)` or `**NO**`.
+    pub fn text(self) -> &'static str {
+        match self {
+            Verdict::Yes => "yes",
+            Verdict::Tie => "tie (within noise)",
+            Verdict::No => "**NO**",
+        }
     }
 }
 
@@ -141,8 +261,8 @@ pub struct Check {
     pub scene: String,
     /// What is claimed.
     pub claim: String,
-    /// Whether it held.
-    pub holds: bool,
+    /// How it came out.
+    pub verdict: Verdict,
     /// The figures it was decided on.
     pub detail: String,
 }
@@ -155,6 +275,12 @@ pub fn run(
 ) -> Result<Table1, String> {
     if config.runs == 0 {
         return Err("--runs must be at least 1".to_owned());
+    }
+    if config.paired_runs < config.runs {
+        return Err(format!(
+            "--paired-runs {} is fewer than --runs {}",
+            config.paired_runs, config.runs
+        ));
     }
     if config.threads.contains(&0) {
         return Err("thread counts must be at least 1".to_owned());
@@ -188,13 +314,13 @@ pub fn run(
             warm.1,
         );
         let mut runs: Vec<Vec<FrameStats>> = vec![Vec::new(); columns.len()];
-        for run in 0..config.runs {
-            for (i, &(scheme, threads)) in columns.iter().enumerate() {
+        for round in 0..config.rounds() {
+            for (i, (scheme, threads)) in config.round_columns(round) {
                 progress(&format!(
-                    "{name} {} {threads}t run {}/{}",
+                    "{name} {} {threads}t round {}/{}",
                     scheme.name(),
-                    run + 1,
-                    config.runs
+                    round + 1,
+                    config.rounds()
                 ));
                 let (frame, _) = render_with_scheme(
                     scheme,
@@ -245,53 +371,70 @@ impl Table1 {
     }
 
     /// The issue's "what must hold", at 2 threads (real cores on the 2-core machine): WF's
-    /// speed-up over TRA at least 1.8; WF no slower than LCK and LW; LW computes more samples than
-    /// WF; WF (`Adopt`) discards nothing.
+    /// speed-up over TRA at least 1.8; WF no slower than LCK and LW (judged on the paired
+    /// per-round ratios: `yes` when their median is at most 1, `tie` when it is above 1 but the
+    /// interval contains 1, `NO` when the whole interval is above 1); LW computes more samples
+    /// than WF; WF (`Adopt`) discards nothing.
     pub fn checks(&self) -> Vec<Check> {
+        let yes_no = |b: bool| if b { Verdict::Yes } else { Verdict::No };
         let mut out = Vec::new();
         for scene in &self.config.scenes {
             let (Some(wf), Some(_tra)) = (
-                self.get(scene, Scheme::Wf, 2),
+                self.get(scene, Scheme::Wf, CHECK_THREADS),
                 self.get(scene, Scheme::Tra, 1),
             ) else {
                 continue;
             };
-            let mut push = |claim: &str, holds: bool, detail: String| {
+            let mut push = |claim: &str, verdict: Verdict, detail: String| {
                 out.push(Check {
                     scene: scene.clone(),
                     claim: claim.to_owned(),
-                    holds,
+                    verdict,
                     detail,
                 })
             };
             let s = self.speedup(wf);
             push(
                 "WF speed-up over TRA at 2 threads >= 1.8",
-                s >= 1.8,
+                yes_no(s >= 1.8),
                 format!("{s:.3}"),
             );
+            let times = |m: &Measurement| m.runs.iter().map(|r| r.seconds).collect::<Vec<_>>();
             for rival in [Scheme::Lck, Scheme::Lw] {
-                if let Some(r) = self.get(scene, rival, 2) {
-                    push(
-                        &format!("WF no slower than {} at 2 threads", heading(rival)),
-                        wf.time() <= r.time(),
-                        format!(
-                            "WF {:.4} s, {} {:.4} s (WF {:+.1}%; runs WF {}, {} {})",
-                            wf.time(),
-                            heading(rival),
-                            r.time(),
-                            100.0 * (wf.time() / r.time() - 1.0),
-                            wf.range(),
-                            heading(rival),
-                            r.range()
-                        ),
-                    );
-                }
+                let Some(r) = self.get(scene, rival, CHECK_THREADS) else {
+                    continue;
+                };
+                let Some(p) = paired_ratio(&times(wf), &times(r)) else {
+                    continue;
+                };
+                let verdict = if p.median <= 1.0 {
+                    Verdict::Yes
+                } else if p.lo <= 1.0 {
+                    Verdict::Tie
+                } else {
+                    Verdict::No
+                };
+                push(
+                    &format!("WF no slower than {} at 2 threads", heading(rival)),
+                    verdict,
+                    format!(
+                        "WF/{rv} per round: median {:.4} ({:.0}% interval {:.4}–{:.4}, {} rounds); \
+                         medians WF {:.4} s, {rv} {:.4} s",
+                        p.median,
+                        100.0 * p.coverage,
+                        p.lo,
+                        p.hi,
+                        p.n,
+                        wf.time(),
+                        r.time(),
+                        rv = heading(rival),
+                    ),
+                );
             }
-            if let Some(lw) = self.get(scene, Scheme::Lw, 2) {
+            if let Some(lw) = self.get(scene, Scheme::Lw, CHECK_THREADS) {
                 push(
                     "LW computes more samples than WF at 2 threads",
-                    lw.samples() > wf.samples(),
+                    yes_no(lw.samples() > wf.samples()),
                     format!("LW {}, WF {}", lw.samples(), wf.samples()),
                 );
             }
@@ -303,7 +446,7 @@ impl Table1 {
                 .sum();
             push(
                 "WF (Adopt) discards no sample, any thread count, any run",
-                discarded == 0,
+                yes_no(discarded == 0),
                 format!("{discarded} discarded"),
             );
         }
@@ -321,16 +464,19 @@ impl Table1 {
         let _ = writeln!(md, "- {}", self.machine.banner(&threads));
         let _ = writeln!(
             md,
-            "- image {}x{}, accuracy {}, {} rays per record, {} light samples per pixel, {}-pixel tiles; \
-             {} timed run(s) per column, medians; one untimed warm-up frame per scene; \
-             whole run {:.0} s",
+            "- image {}x{}, {} primary ray(s) per pixel, accuracy {}, {} rays per record, {} light \
+             samples per primary hit, {}-pixel tiles; {} timed run(s) per column ({} for LCK, LW and \
+             WF at {CHECK_THREADS} threads, which the checks compare), medians; one untimed \
+             warm-up frame per scene; whole run {:.0} s",
             s.width,
             s.height,
+            s.pixel_samples,
             s.accuracy,
             s.rays_per_record,
             s.light_samples,
             s.tile_size,
             self.config.runs,
+            self.config.rounds(),
             self.seconds
         );
         let _ = writeln!(
@@ -425,6 +571,13 @@ impl Table1 {
              samples discarded (WF, WF-D). Sharing: hits served by a record another thread computed.\n"
         );
         let _ = writeln!(md, "## Checks (2 threads, real cores)\n");
+        let _ = writeln!(
+            md,
+            "Timing comparisons are judged on the per-round ratios WF/rival (both frames of a round \
+             rendered seconds apart): `yes` when their median is at most 1, `tie (within noise)` \
+             when the median is above 1 but the interval (order statistics, at least 95%) contains \
+             1, `NO` when the whole interval is above 1.\n"
+        );
         let _ = writeln!(md, "| scene | claim | holds | figures |\n|---|---|---|---|");
         for c in self.checks() {
             let _ = writeln!(
@@ -432,7 +585,7 @@ impl Table1 {
                 "| {} | {} | {} | {} |",
                 c.scene,
                 c.claim,
-                if c.holds { "yes" } else { "**NO**" },
+                c.verdict.text(),
                 c.detail
             );
         }
@@ -622,6 +775,73 @@ mod tests {
     }
 
     #[test]
+    fn extra_rounds_render_only_the_compared_columns_and_odd_rounds_reverse() {
+        let mut c = tiny();
+        c.paired_runs = 5;
+        let r0: Vec<_> = c.round_columns(0).into_iter().map(|(_, col)| col).collect();
+        let r1: Vec<_> = c.round_columns(1).into_iter().map(|(_, col)| col).collect();
+        assert_eq!(r0, c.columns());
+        assert_eq!(r1, c.columns().into_iter().rev().collect::<Vec<_>>());
+        let r2: Vec<_> = c.round_columns(2).into_iter().map(|(_, col)| col).collect();
+        assert_eq!(
+            r2,
+            vec![(Scheme::Lck, 2), (Scheme::Lw, 2), (Scheme::Wf, 2)],
+            "only LCK, LW and WF at 2 threads"
+        );
+        assert_eq!(c.rounds(), 5);
+        assert_eq!(c.total_frames(), 1 + 2 * 9 + 3 * 3);
+        let machine = Machine {
+            cores: 2,
+            cpu: "test".into(),
+        };
+        let mut bad = tiny();
+        bad.paired_runs = 1;
+        let e = run(&bad, &machine, &mut |_| {}).unwrap_err();
+        assert!(e.contains("--paired-runs 1 is fewer than --runs 2"), "{e}");
+    }
+
+    #[test]
+    fn paired_ratios_give_the_median_and_an_order_statistic_interval() {
+        // Ratios 0.90, 0.95, ..., 1.40 (11 rounds): median 1.15; the 95% interval drops the two
+        // most extreme on each side (k = 2: coverage 1 - 2 * 12/2048 = 0.98828).
+        let b = vec![2.0; 11];
+        let a: Vec<f64> = (0..11)
+            .rev()
+            .map(|i| 2.0 * (0.90 + 0.05 * i as f64))
+            .collect();
+        let p = paired_ratio(&a, &b).unwrap();
+        assert_eq!(p.n, 11);
+        assert!((p.median - 1.15).abs() < 1e-12, "{p:?}");
+        assert!(
+            (p.lo - 0.95).abs() < 1e-12 && (p.hi - 1.35).abs() < 1e-12,
+            "{p:?}"
+        );
+        assert!((p.coverage - (1.0 - 24.0 / 2048.0)).abs() < 1e-12, "{p:?}");
+        // Pairs are kept together: sorting one side alone would change the ratios.
+        let p2 = paired_ratio(&[1.0, 3.0], &[3.0, 1.0]).unwrap();
+        assert!((p2.median - (1.0 / 3.0 + 3.0) / 2.0).abs() < 1e-12);
+        // Too few rounds for 95%: the interval is the whole range, and says its coverage.
+        let p3 = paired_ratio(&[1.0, 2.0, 3.0], &[1.0; 3]).unwrap();
+        assert_eq!((p3.lo, p3.hi), (1.0, 3.0));
+        assert!(p3.coverage < 0.95);
+        assert!(paired_ratio(&[], &[]).is_none());
+        // Verdicts from a table whose WF is 1% slower in every round but one: a tie at most.
+        let n = 15;
+        let k = (1..=n / 2).rev().find(|&k| {
+            let tail: f64 = (0..k).map(|j| binom(n, j)).sum::<f64>() / 2f64.powi(n as i32);
+            1.0 - 2.0 * tail >= 0.95
+        });
+        assert_eq!(k, Some(4), "n = 15 drops three ratios on each side");
+        let wf: Vec<f64> = (0..n).map(|i| if i == 0 { 0.9 } else { 1.01 }).collect();
+        let p4 = paired_ratio(&wf, &vec![1.0; n]).unwrap();
+        assert!(p4.lo > 1.0, "consistently slower is not a tie: {p4:?}");
+    }
+
+    fn binom(n: usize, k: usize) -> f64 {
+        (0..k).fold(1.0, |c, j| c * (n - j) as f64 / (j + 1) as f64)
+    }
+
+    #[test]
     fn a_tiny_run_writes_the_table_csv_and_figure() {
         let config = tiny();
         let machine = Machine {
@@ -640,7 +860,7 @@ mod tests {
         let checks = t.checks();
         assert!(checks
             .iter()
-            .any(|c| c.claim.starts_with("WF (Adopt)") && c.holds));
+            .any(|c| c.claim.starts_with("WF (Adopt)") && c.verdict == Verdict::Yes));
         assert!(checks.iter().any(|c| c.claim.starts_with("WF speed-up")));
 
         let dir = std::env::temp_dir().join(format!("wfic-table1-{}", std::process::id()));

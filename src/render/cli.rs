@@ -171,9 +171,12 @@ pub struct RenderArgs {
     /// Hemisphere rays per irradiance record.
     #[arg(long, default_value_t = 512)]
     pub rays_per_record: u32,
-    /// Light samples (shadow rays) per pixel for direct light.
+    /// Light samples (shadow rays) per primary hit for direct light.
     #[arg(long, default_value_t = 8)]
     pub light_samples: u32,
+    /// Primary rays per pixel (stratified jitter; each hit makes its own cache lookup).
+    #[arg(long, default_value_t = 1)]
+    pub spp: u32,
     /// Seed of the per-pixel random streams.
     #[arg(long, default_value_t = 0x5eed)]
     pub seed: u64,
@@ -293,6 +296,9 @@ pub fn settings_from(args: &RenderArgs) -> Result<RenderSettings, RenderError> {
     if args.light_samples == 0 {
         return usage("--light-samples must be at least 1".to_owned());
     }
+    if args.spp == 0 {
+        return usage("--spp must be at least 1".to_owned());
+    }
     if !(args.accuracy > 0.0 && args.accuracy <= 2.0) {
         return usage(format!("--accuracy {} is not in (0, 2]", args.accuracy));
     }
@@ -300,6 +306,7 @@ pub fn settings_from(args: &RenderArgs) -> Result<RenderSettings, RenderError> {
         .accuracy(args.accuracy)
         .rays_per_record(args.rays_per_record)
         .light_samples(args.light_samples)
+        .pixel_samples(args.spp)
         .seed(args.seed)
         .quiet(args.quiet))
 }

@@ -70,8 +70,12 @@ pub struct RenderSettings {
     pub accuracy: f32,
     /// Hemisphere rays per irradiance estimate (rounded to `M x N` strata).
     pub rays_per_record: u32,
-    /// Light samples (shadow rays) for the direct term at each pixel.
+    /// Light samples (shadow rays) for the direct term at each primary hit.
     pub light_samples: u32,
+    /// Primary rays per pixel (stratified jitter, box filter). Each primary hit is shaded on its
+    /// own, so each makes its own cache lookup, as in a renderer that antialiases. 1 shoots one
+    /// ray through the pixel's centre.
+    pub pixel_samples: u32,
     /// Lower radius clamp, in pixel footprints.
     pub min_radius_pixels: f32,
     /// Upper radius clamp, in pixel footprints.
@@ -97,6 +101,7 @@ impl RenderSettings {
             accuracy: 0.25,
             rays_per_record: 512,
             light_samples: 8,
+            pixel_samples: 1,
             min_radius_pixels: 6.0,
             max_radius_pixels: 120.0,
             min_radius_scene: 0.002,
@@ -119,9 +124,15 @@ impl RenderSettings {
         self
     }
 
-    /// Sets the light samples per pixel.
+    /// Sets the light samples per primary hit.
     pub fn light_samples(mut self, n: u32) -> Self {
         self.light_samples = n;
+        self
+    }
+
+    /// Sets the primary rays per pixel.
+    pub fn pixel_samples(mut self, n: u32) -> Self {
+        self.pixel_samples = n;
         self
     }
 

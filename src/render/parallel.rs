@@ -154,16 +154,47 @@ impl Frame<'_> {
         (x0, y0, x1, y1)
     }
 
-    /// The radiance through the centre of pixel `(px, py)`.
+    /// The radiance of pixel `(px, py)`: the mean of its `pixel_samples` primary rays, placed
+    /// by stratified jitter on the most nearly square `cols x rows` grid with `cols * rows`
+    /// equal to the count (a single ray goes through the centre).
     fn shade<H: CacheHandle>(
         &self,
         px: u32,
         py: u32,
+        mut handle: Option<&mut H>,
+        counters: &mut Counters,
+    ) -> Vec3 {
+        let n = self.settings.pixel_samples.max(1);
+        if n == 1 {
+            return self.shade_sample(px, py, 0, (0.5, 0.5), handle, counters);
+        }
+        let (cols, rows) = strata_grid(n);
+        let mut pos = Rng::for_pixel(self.settings.seed, px, py, Stream::Position);
+        let mut sum = Vec3::ZERO;
+        for s in 0..n {
+            let (i, j) = (s % cols, s / cols);
+            let u = (i as f32 + pos.next_f32()) / cols as f32;
+            let v = (j as f32 + pos.next_f32()) / rows as f32;
+            sum += self.shade_sample(px, py, s, (u, v), handle.as_deref_mut(), counters);
+        }
+        sum / n as f32
+    }
+
+    /// The radiance along one primary ray through `(px + offset.0, py + offset.1)`, sample
+    /// `sample` of its pixel.
+    fn shade_sample<H: CacheHandle>(
+        &self,
+        px: u32,
+        py: u32,
+        sample: u32,
+        offset: (f32, f32),
         handle: Option<&mut H>,
         counters: &mut Counters,
     ) -> Vec3 {
         let scene = self.scene;
-        let dir = self.view.direction(px as f32 + 0.5, py as f32 + 0.5);
+        let dir = self
+            .view
+            .direction(px as f32 + offset.0, py as f32 + offset.1);
         counters.rays.primary += 1;
         let Some(hit) = scene.intersect(self.view.eye(), dir, f32::INFINITY) else {
             return Vec3::ZERO;
@@ -175,7 +206,7 @@ impl Frame<'_> {
         } else {
             Vec3::ZERO
         };
-        let mut rng = Rng::for_pixel(self.settings.seed, px, py, Stream::Direct);
+        let mut rng = Rng::for_sample(self.settings.seed, px, py, sample, Stream::Direct);
         let direct = integrator::direct_irradiance(
             scene,
             x,
@@ -195,7 +226,8 @@ impl Frame<'_> {
         let indirect = match cached {
             Ok(e) => e,
             Err(handle) => {
-                let mut rng = Rng::for_pixel(self.settings.seed, px, py, Stream::Hemisphere);
+                let mut rng =
+                    Rng::for_sample(self.settings.seed, px, py, sample, Stream::Hemisphere);
                 let start = Instant::now();
                 let s = integrator::sample_irradiance(
                     scene,
@@ -240,6 +272,17 @@ impl Frame<'_> {
         }
         out
     }
+}
+
+/// The most nearly square grid `(cols, rows)` with `cols * rows == n` and `cols >= rows`
+/// (`n` prime gives `(n, 1)`).
+fn strata_grid(n: u32) -> (u32, u32) {
+    let mut rows = (n as f64).sqrt() as u32;
+    while rows > 1 && n % rows != 0 {
+        rows -= 1;
+    }
+    let rows = rows.max(1);
+    (n / rows, rows)
 }
 
 /// The record's radius and translational gradient, limited as Křivánek et al. (2006, "Making
@@ -472,4 +515,23 @@ pub fn render_orbit<C: IrradianceCache>(
             out.stats
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::strata_grid;
+
+    #[test]
+    fn strata_grids_are_as_square_as_the_count_allows() {
+        assert_eq!(strata_grid(1), (1, 1));
+        assert_eq!(strata_grid(4), (2, 2));
+        assert_eq!(strata_grid(6), (3, 2));
+        assert_eq!(strata_grid(7), (7, 1));
+        assert_eq!(strata_grid(16), (4, 4));
+        for n in 1..200 {
+            let (c, r) = strata_grid(n);
+            assert_eq!(c * r, n);
+            assert!(c >= r);
+        }
+    }
 }

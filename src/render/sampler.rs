@@ -12,6 +12,8 @@ pub enum Stream {
     /// Hemisphere directions (and the light samples at their hits) of the pixel's irradiance
     /// estimate, whether it becomes a cache record or (scheme `none`) is used once.
     Hemisphere = 2,
+    /// The position of each of the pixel's samples inside the pixel (stratified jitter).
+    Position = 3,
 }
 
 /// SplitMix64 finaliser: a bijective 64-bit mix with good avalanche.
@@ -37,6 +39,17 @@ impl Rng {
         Self {
             state: mix64(key ^ (stream as u64).wrapping_mul(Self::GAMMA)),
         }
+    }
+
+    /// The stream `stream` of sample `sample` of pixel `(x, y)`. Sample 0 is the pixel's own
+    /// stream ([`Rng::for_pixel`]), so one sample per pixel renders exactly as before supersampling
+    /// existed; every other sample gets independent streams.
+    pub fn for_sample(seed: u64, x: u32, y: u32, sample: u32, stream: Stream) -> Self {
+        let mut rng = Self::for_pixel(seed, x, y, stream);
+        if sample > 0 {
+            rng.state = mix64(rng.state ^ mix64(u64::from(sample)));
+        }
+        rng
     }
 
     /// A generator from a raw seed.
@@ -77,6 +90,12 @@ mod tests {
         let mut d = Rng::for_pixel(7, 4, 3, Stream::Direct);
         assert_ne!(a[0], c.next_u64());
         assert_ne!(a[0], d.next_u64());
+        let mut e = Rng::for_sample(7, 3, 4, 0, Stream::Direct);
+        assert_eq!(a[0], e.next_u64(), "sample 0 is the pixel's own stream");
+        let mut f = Rng::for_sample(7, 3, 4, 1, Stream::Direct);
+        let mut g = Rng::for_sample(7, 3, 4, 2, Stream::Direct);
+        let (f0, g0) = (f.next_u64(), g.next_u64());
+        assert!(f0 != a[0] && g0 != a[0] && f0 != g0);
     }
 
     #[test]

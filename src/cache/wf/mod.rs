@@ -45,7 +45,7 @@ use std::ptr;
 /// The record list itself, for the loom models that exercise it alone.
 #[cfg(feature = "loom")]
 pub use list::{ListFull, RecordList};
-pub use orderings::{Minimal, Orderings, ReadFence, SeqCstEverywhere};
+pub use orderings::{Minimal, MinimalControl, Orderings, ReadFence, SeqCstEverywhere};
 
 /// What an insert does when its compare-and-swap on a missing child loses the race.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]

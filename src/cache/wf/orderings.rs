@@ -89,7 +89,14 @@ pub struct SeqCstEverywhere;
 #[derive(Clone, Copy, Debug, Default)]
 pub struct ReadFence;
 
+/// A benchmark control: [`Minimal`]'s orderings under another type. The compiler emits a second,
+/// identical copy of the cache's code for it, placed elsewhere in the binary, so comparing it with
+/// [`Minimal`] measures what code placement alone does to a timing (`benches/orderings.rs`).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct MinimalControl;
+
 impl sealed::Sealed for Minimal {}
+impl sealed::Sealed for MinimalControl {}
 impl sealed::Sealed for SeqCstEverywhere {}
 impl sealed::Sealed for ReadFence {}
 
@@ -108,6 +115,11 @@ const MINIMAL: [Ordering; Site::COUNT] = [
 
 impl Orderings for Minimal {
     const NAME: &'static str = "minimal";
+    const SITES: [Ordering; Site::COUNT] = MINIMAL;
+}
+
+impl Orderings for MinimalControl {
+    const NAME: &'static str = "minimal-control";
     const SITES: [Ordering; Site::COUNT] = MINIMAL;
 }
 
