@@ -4,12 +4,8 @@ use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use std::io::IsTerminal;
 use std::process::ExitCode;
-use wfic::cache::wf::Minimal;
-use wfic::cache::{
-    CasFailure, IrradianceCache, LocalWrite, Locked, MutexFlavour, RwLockFlavour, Sequential,
-    WaitFree,
-};
-use wfic::render::cli::Scheme;
+use wfic::cache::IrradianceCache;
+use wfic::render::cli::{CacheJob, Scheme};
 use wfic::workload::{run_frame, Frame, FrameResult, Room};
 
 #[derive(Parser)]
@@ -131,24 +127,15 @@ fn demo(args: &DemoArgs) -> Result<(), String> {
             args.threads
         };
         let config = room.config(args.accuracy);
-        let rows = match scheme {
-            Scheme::Tra => frames(Sequential::new(config), room, threads, args),
-            Scheme::Lck => frames(Locked::<MutexFlavour>::new(config), room, threads, args),
-            Scheme::LckRw => frames(Locked::<RwLockFlavour>::new(config), room, threads, args),
-            Scheme::Lw => frames(LocalWrite::new(config), room, threads, args),
-            Scheme::Wf => frames(
-                WaitFree::<Minimal>::new(config, CasFailure::Adopt),
+        let Some(rows) = scheme.build(
+            config,
+            Frames {
                 room,
                 threads,
                 args,
-            ),
-            Scheme::WfDiscard => frames(
-                WaitFree::<Minimal>::new(config, CasFailure::Discard),
-                room,
-                threads,
-                args,
-            ),
-            Scheme::None => unreachable!("filtered out above"),
+            },
+        ) else {
+            continue; // `none` has no cache: filtered out above
         };
         for (frame, r) in rows.iter().enumerate() {
             let w = &r.report.workers;
@@ -168,6 +155,20 @@ fn demo(args: &DemoArgs) -> Result<(), String> {
         }
     }
     Ok(())
+}
+
+/// The demo's frames on one scheme's cache.
+struct Frames<'a> {
+    room: Room,
+    threads: u32,
+    args: &'a DemoArgs,
+}
+
+impl CacheJob for Frames<'_> {
+    type Output = Vec<FrameResult>;
+    fn run<C: IrradianceCache>(self, cache: C) -> Vec<FrameResult> {
+        frames(cache, self.room, self.threads, self.args)
+    }
 }
 
 fn frames<C: IrradianceCache>(

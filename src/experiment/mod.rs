@@ -14,10 +14,8 @@ pub mod paper;
 pub mod plot;
 pub mod table1;
 
-use crate::cache::{
-    IrradianceCache, LocalWrite, Locked, MutexFlavour, RwLockFlavour, Sequential, WaitFree,
-};
-use crate::render::cli::Scheme;
+use crate::cache::IrradianceCache;
+use crate::render::cli::{CacheJob, Scheme};
 use crate::render::{FrameStats, RenderSettings, Scene};
 
 /// The machine a run measured: what every table and plot prints at the top.
@@ -86,33 +84,40 @@ pub fn orbit_with_scheme(
     frames: usize,
     each: &mut dyn FnMut(usize, &FrameStats),
 ) -> Result<Vec<FrameStats>, String> {
-    fn go<C: IrradianceCache>(
-        mut cache: C,
-        scene: &Scene,
-        settings: &RenderSettings,
+    struct Orbit<'a> {
+        scene: &'a Scene,
+        settings: &'a RenderSettings,
         threads: usize,
         frames: usize,
-        each: &mut dyn FnMut(usize, &FrameStats),
-    ) -> Vec<FrameStats> {
-        crate::render::render_orbit(scene, settings, &mut cache, threads, frames, |i, f| {
-            each(i, &f.stats)
-        })
+        each: &'a mut dyn FnMut(usize, &FrameStats),
+    }
+    impl CacheJob for Orbit<'_> {
+        type Output = Vec<FrameStats>;
+        fn run<C: IrradianceCache>(self, mut cache: C) -> Vec<FrameStats> {
+            let each = self.each;
+            crate::render::render_orbit(
+                self.scene,
+                self.settings,
+                &mut cache,
+                self.threads,
+                self.frames,
+                |i, f| each(i, &f.stats),
+            )
+        }
     }
     let config = settings
         .cache_config(scene)
         .map_err(|e| format!("{}: {e}", scene.name()))?;
-    let (s, t, n) = (settings, threads, frames);
-    Ok(match scheme {
-        Scheme::Tra => go(Sequential::new(config), scene, s, t, n, each),
-        Scheme::Lck => go(Locked::<MutexFlavour>::new(config), scene, s, t, n, each),
-        Scheme::LckRw => go(Locked::<RwLockFlavour>::new(config), scene, s, t, n, each),
-        Scheme::Lw => go(LocalWrite::new(config), scene, s, t, n, each),
-        Scheme::Wf => go(WaitFree::adopt(config), scene, s, t, n, each),
-        Scheme::WfDiscard => go(WaitFree::discard(config), scene, s, t, n, each),
-        Scheme::None => {
-            return Err("scheme `none` has no cache to reuse across frames".to_owned());
-        }
-    })
+    let job = Orbit {
+        scene,
+        settings,
+        threads,
+        frames,
+        each,
+    };
+    scheme
+        .build(config, job)
+        .ok_or_else(|| "scheme `none` has no cache to reuse across frames".to_owned())
 }
 
 /// The column heading of a scheme (as the paper writes them, plus ours).

@@ -8,6 +8,7 @@ use super::film::worker_colour;
 use super::{
     obj, render_frame, render_reference, scenes, Camera, FrameResult, RenderSettings, Scene,
 };
+use crate::cache::wf::Minimal;
 use crate::cache::{
     CacheConfig, CasFailure, IrradianceCache, LocalWrite, Locked, MutexFlavour, RwLockFlavour,
     Sequential, WaitFree,
@@ -73,6 +74,31 @@ impl Scheme {
     ];
 }
 
+/// Work to run on a freshly built cache, whatever its scheme: the callers are generic over
+/// [`IrradianceCache`], and [`Scheme::build`] is the one place a scheme name becomes a cache type.
+pub trait CacheJob {
+    /// What the job returns.
+    type Output;
+    /// Runs the job on `cache`.
+    fn run<C: IrradianceCache>(self, cache: C) -> Self::Output;
+}
+
+impl Scheme {
+    /// Builds this scheme's cache over `config` and runs `job` on it; `None` for
+    /// [`Scheme::None`], which has no cache. WF uses the [`Minimal`] orderings.
+    pub fn build<J: CacheJob>(self, config: CacheConfig, job: J) -> Option<J::Output> {
+        Some(match self {
+            Self::Tra => job.run(Sequential::new(config)),
+            Self::Lck => job.run(Locked::<MutexFlavour>::new(config)),
+            Self::LckRw => job.run(Locked::<RwLockFlavour>::new(config)),
+            Self::Lw => job.run(LocalWrite::new(config)),
+            Self::Wf => job.run(WaitFree::<Minimal>::new(config, CasFailure::Adopt)),
+            Self::WfDiscard => job.run(WaitFree::<Minimal>::new(config, CasFailure::Discard)),
+            Self::None => return None,
+        })
+    }
+}
+
 /// Renders one frame with `scheme` and a fresh cache (or none), returning the frame and the
 /// records the cache holds afterwards.
 pub fn render_with_scheme(
@@ -83,53 +109,37 @@ pub fn render_with_scheme(
     config: CacheConfig,
     threads: usize,
 ) -> (FrameResult, Vec<crate::ic::Record>) {
-    fn go<C: IrradianceCache>(
-        mut cache: C,
-        scene: &Scene,
-        camera: &Camera,
-        settings: &RenderSettings,
+    struct Frame<'a> {
+        scene: &'a Scene,
+        camera: &'a Camera,
+        settings: &'a RenderSettings,
         threads: usize,
-    ) -> (FrameResult, Vec<crate::ic::Record>) {
-        let out = render_frame(scene, camera, settings, &mut cache, threads);
-        let records = cache.snapshot();
-        (out, records)
     }
-    match scheme {
-        Scheme::Tra => go(Sequential::new(config), scene, camera, settings, threads),
-        Scheme::Lck => go(
-            Locked::<MutexFlavour>::new(config),
-            scene,
-            camera,
-            settings,
-            threads,
-        ),
-        Scheme::LckRw => go(
-            Locked::<RwLockFlavour>::new(config),
-            scene,
-            camera,
-            settings,
-            threads,
-        ),
-        Scheme::Lw => go(LocalWrite::new(config), scene, camera, settings, threads),
-        Scheme::Wf => go(
-            WaitFree::<crate::cache::wf::Minimal>::new(config, CasFailure::Adopt),
-            scene,
-            camera,
-            settings,
-            threads,
-        ),
-        Scheme::WfDiscard => go(
-            WaitFree::<crate::cache::wf::Minimal>::new(config, CasFailure::Discard),
-            scene,
-            camera,
-            settings,
-            threads,
-        ),
-        Scheme::None => (
+    impl CacheJob for Frame<'_> {
+        type Output = (FrameResult, Vec<crate::ic::Record>);
+        fn run<C: IrradianceCache>(self, mut cache: C) -> Self::Output {
+            let out = render_frame(
+                self.scene,
+                self.camera,
+                self.settings,
+                &mut cache,
+                self.threads,
+            );
+            (out, cache.snapshot())
+        }
+    }
+    let job = Frame {
+        scene,
+        camera,
+        settings,
+        threads,
+    };
+    scheme.build(config, job).unwrap_or_else(|| {
+        (
             render_reference(scene, camera, settings, threads),
             Vec::new(),
-        ),
-    }
+        )
+    })
 }
 
 fn parse_vec3(s: &str) -> Result<Vec3, String> {
@@ -388,4 +398,27 @@ pub fn run_render(args: RenderArgs) -> Result<(), RenderError> {
         overlay.display(),
     );
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    struct Name;
+
+    impl CacheJob for Name {
+        type Output = &'static str;
+        fn run<C: IrradianceCache>(self, cache: C) -> &'static str {
+            cache.scheme()
+        }
+    }
+
+    #[test]
+    fn every_scheme_builds_the_cache_it_names_and_none_builds_nothing() {
+        let config = CacheConfig::new(Vec3::ZERO, Vec3::ONE, 0.25).unwrap();
+        for scheme in Scheme::CACHED {
+            assert_eq!(scheme.build(config, Name), Some(scheme.name()));
+        }
+        assert_eq!(Scheme::None.build(config, Name), None);
+    }
 }
