@@ -223,10 +223,9 @@ impl Panel {
         let span = if x1 > x0 { x1 - x0 } else { 1.0 };
         let px = |x: f64| left + ((x - x0) / span * (right - left) as f64).round() as i64;
 
-        for (a, b, caption) in &self.shaded {
+        for (a, b, _) in &self.shaded {
             let (pa, pb) = (px(*a).max(left), px(*b).min(right));
             fill_rect(img, pa, top, pb - pa, bottom - top, SHADE);
-            draw_text(img, pa + 4, top + 4, caption, [150, 110, 40], 1);
         }
 
         // Left axis.
@@ -321,6 +320,14 @@ impl Panel {
                     fill_rect(img, x - 4, y - 4, 9, 9, line.colour);
                 }
             }
+        }
+        // Captions of the shaded ranges on top of everything, on their own patch of shade, so
+        // tall bars do not hide them.
+        for (a, _, caption) in &self.shaded {
+            let pa = px(*a).max(left);
+            let tw = i64::from(font::text_width(caption, 1));
+            fill_rect(img, pa + 2, top + 2, tw + 4, 12, SHADE);
+            draw_text(img, pa + 4, top + 4, caption, [150, 110, 40], 1);
         }
     }
 }

@@ -730,8 +730,20 @@ impl Table1 {
         Figure {
             header: vec![
                 format!(
-                    "FIGURE 1 (REPRODUCED): STILL IMAGES, EMPTY CACHE, {}X{}, MEDIAN OF {} RUN(S)",
-                    s.width, s.height, self.config.runs
+                    "FIGURE 1 (REPRODUCED): STILL IMAGES, EMPTY CACHE, {}X{}, {} SPP, MEDIAN OF {} \
+                     RUN(S){}",
+                    s.width,
+                    s.height,
+                    s.pixel_samples,
+                    self.config.runs,
+                    if self.config.rounds() > self.config.runs {
+                        format!(
+                            " ({} FOR LCK, LW, WF AT {CHECK_THREADS} THREADS)",
+                            self.config.rounds()
+                        )
+                    } else {
+                        String::new()
+                    }
                 ),
                 self.machine.banner(&threads),
             ],
