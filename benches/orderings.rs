@@ -17,8 +17,12 @@
 //! * `orderings/insert-2t/*` — two threads inserting concurrently into a freshly pre-filled cache,
 //!   each its own half of a batch (time per insert of the pair).
 //!
-//! Two-thread frames are timed from the barrier's release to the last worker's end, each worker
-//! reading the clock itself (as `cache_ops`'s `mixed-2t`). After the groups, the bench prints each
+//! Two-thread frames run on two worker threads that live for the whole benchmark function
+//! (`Pair`), start from a spinning start line ([`SpinStart`]), and are timed from the first
+//! worker's start to the last worker's end, each worker reading the clock itself. The first
+//! version spawned two threads per frame and released them with a `Barrier`: two runs of the
+//! same insert code then differed by up to 2x (fresh threads' first allocations, parked
+//! threads' wake-ups). After the groups, the bench prints each
 //! policy's median over `minimal`'s, read from criterion's `estimates.json`.
 
 mod common;
@@ -28,11 +32,12 @@ use criterion::measurement::WallTime;
 use criterion::{BenchmarkGroup, Criterion, Throughput};
 use std::hint::black_box;
 use std::path::PathBuf;
-use std::sync::Barrier;
+use std::sync::{mpsc, Arc};
 use std::thread;
 use std::time::{Duration, Instant};
 use wfic::cache::wf::{Minimal, MinimalControl, Orderings, ReadFence, SeqCstEverywhere};
-use wfic::cache::{CacheHandle, CasFailure, IrradianceCache, WaitFree};
+use wfic::cache::{CacheHandle, CasFailure, IrradianceCache, WaitFree, WfHandle, WorkerStats};
+use wfic::ic::Record;
 use wfic::ic::WorkerId;
 
 const GROUPS: [&str; 4] = ["lookup-1t", "insert-1t", "lookup-2t", "insert-2t"];
@@ -56,40 +61,95 @@ fn insert_1t<O: Orderings>(g: &mut BenchmarkGroup<'_, WallTime>, id: &str) {
     bench_insert(g, id, |c| WaitFree::<O>::new(c, CasFailure::Adopt));
 }
 
-/// Two workers released by a barrier, each running `work(worker, handle)`; returns the time from
-/// the first release to the last end. `end_frame` is not timed (WF's is a sum of counters).
-fn two_threads<O: Orderings>(
-    cache: &mut WaitFree<O>,
-    work: &(dyn Fn(usize, &mut wfic::cache::WfHandle<'_, O>) + Sync),
-) -> Duration {
-    let barrier = Barrier::new(2);
-    let results = thread::scope(|s| {
-        let (shared, barrier) = (&*cache, &barrier);
-        let workers = [0usize, 1].map(|k| {
-            s.spawn(move || {
-                let mut h = shared.handle(WorkerId::new(k as u32));
-                barrier.wait();
+/// What a worker does in one frame: `work(worker, handle)` on the shared cache.
+type Work<O> = Arc<dyn Fn(usize, &mut WfHandle<'_, O>) + Send + Sync>;
+/// A worker's frame: its residue, and when it started and ended.
+type Done = (WorkerStats, Instant, Instant);
+
+/// Two worker threads that live for a whole benchmark function, so every timed frame runs on
+/// warm threads (their allocator caches and arenas included). Spawning fresh threads for every
+/// frame made two runs of identical insert code differ by up to 2x: a new thread's first
+/// allocations are not the steady state the cache meets in a renderer.
+struct Pair<O: Orderings> {
+    jobs: [mpsc::Sender<Box<dyn FnOnce() -> Done + Send>>; 2],
+    done: mpsc::Receiver<Done>,
+    threads: Vec<thread::JoinHandle<()>>,
+    _policy: std::marker::PhantomData<O>,
+}
+
+impl<O: Orderings> Pair<O> {
+    fn new() -> Self {
+        let (done_tx, done) = mpsc::channel();
+        let mut threads = Vec::new();
+        let jobs = [0, 1].map(|_| {
+            let (tx, rx) = mpsc::channel::<Box<dyn FnOnce() -> Done + Send>>();
+            let done_tx = done_tx.clone();
+            threads.push(thread::spawn(move || {
+                for job in rx {
+                    if done_tx.send(job()).is_err() {
+                        break;
+                    }
+                }
+            }));
+            tx
+        });
+        Self {
+            jobs,
+            done,
+            threads,
+            _policy: std::marker::PhantomData,
+        }
+    }
+
+    /// One frame: both workers take a handle, start together ([`SpinStart`]) and run `work`;
+    /// returns the time from the first start to the last end. `end_frame` is not timed (WF's is
+    /// a sum of counters).
+    fn frame(&self, cache: &mut Arc<WaitFree<O>>, work: &Work<O>) -> Duration {
+        let start_line = Arc::new(SpinStart::new(2));
+        for (k, jobs) in self.jobs.iter().enumerate() {
+            let (cache, work, start_line) =
+                (Arc::clone(cache), Arc::clone(work), Arc::clone(&start_line));
+            let job = Box::new(move || {
+                let mut h = cache.handle(WorkerId::new(k as u32));
+                start_line.wait();
                 let start = Instant::now();
                 work(k, &mut h);
                 let end = Instant::now();
                 (h.finish(), start, end)
-            })
-        });
-        workers.map(|t| t.join().expect("bench worker panicked"))
-    });
-    let start = results.iter().map(|r| r.1).min().unwrap();
-    let end = results.iter().map(|r| r.2).max().unwrap();
-    cache.end_frame(results.into_iter().map(|r| r.0).collect());
-    end - start
+            });
+            jobs.send(job).expect("bench worker alive");
+        }
+        let results = [0, 1].map(|_| self.done.recv().expect("bench worker alive"));
+        let start = results.iter().map(|r| r.1).min().unwrap();
+        let end = results.iter().map(|r| r.2).max().unwrap();
+        // The jobs (and their clones of the cache) are gone once their results arrived.
+        Arc::get_mut(cache)
+            .expect("no worker holds the cache between frames")
+            .end_frame(results.into_iter().map(|r| r.0).collect());
+        end - start
+    }
+}
+
+impl<O: Orderings> Drop for Pair<O> {
+    fn drop(&mut self) {
+        // Closing the job channels ends the workers' loops.
+        let (a, _) = mpsc::channel();
+        let (b, _) = mpsc::channel();
+        drop(std::mem::replace(&mut self.jobs, [a, b]));
+        for t in self.threads.drain(..) {
+            t.join().expect("bench worker panicked");
+        }
+    }
 }
 
 fn lookup_2t<O: Orderings>(g: &mut BenchmarkGroup<'_, WallTime>, id: &str) {
     let w = workload();
-    let mut cache = prefilled(make::<O>(), &w.prefill);
+    let mut cache = Arc::new(prefilled(make::<O>(), &w.prefill));
+    let pair = Pair::<O>::new();
     g.bench_function(id, |b| {
         b.iter_custom(|iters| {
             let counts = [iters - iters / 2, iters / 2];
-            two_threads(&mut cache, &|k, h| {
+            let work: Work<O> = Arc::new(move |k, h| {
                 // The two workers start at opposite ends of the query list.
                 let mut i = k * w.queries.len() / 2;
                 for _ in 0..counts[k] {
@@ -100,28 +160,31 @@ fn lookup_2t<O: Orderings>(g: &mut BenchmarkGroup<'_, WallTime>, id: &str) {
                         i = 0;
                     }
                 }
-            })
+            });
+            pair.frame(&mut cache, &work)
         })
     });
 }
 
 fn insert_2t<O: Orderings>(g: &mut BenchmarkGroup<'_, WallTime>, id: &str) {
     let w = workload();
-    let batch = &w.fresh[..INSERT_BATCH];
+    let batch: &'static [Record] = &w.fresh[..INSERT_BATCH];
+    let pair = Pair::<O>::new();
     g.bench_function(id, |b| {
         b.iter_custom(|iters| {
             let mut total = Duration::ZERO;
             let mut left = iters as usize;
             while left > 0 {
                 let n = left.min(INSERT_BATCH);
-                let mut cache = prefilled(make::<O>(), &w.prefill);
+                let mut cache = Arc::new(prefilled(make::<O>(), &w.prefill));
                 // Worker 0 inserts the first half of the batch, worker 1 the second.
                 let halves = [&batch[..n - n / 2], &batch[n - n / 2..n]];
-                total += two_threads(&mut cache, &|k, h| {
+                let work: Work<O> = Arc::new(move |k, h| {
                     for r in halves[k] {
                         let _ = black_box(h.insert(black_box(*r)));
                     }
                 });
+                total += pair.frame(&mut cache, &work);
                 left -= n;
             }
             total

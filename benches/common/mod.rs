@@ -386,3 +386,33 @@ pub fn bench_insert<C: IrradianceCache>(
         })
     });
 }
+
+/// Starts two (or more) bench workers together. `std::sync::Barrier` parks the first arrival in
+/// the kernel, and its wake-up (tens of microseconds) lands inside a timing of ~100 µs; here every
+/// arrival spins until all have arrived, so the workers start within one cache-line transfer of
+/// each other. Harness code only: the caches under test never see it.
+pub struct SpinStart {
+    arrived: std::sync::atomic::AtomicUsize,
+    parties: usize,
+}
+
+impl SpinStart {
+    /// A start line for `parties` workers.
+    pub fn new(parties: usize) -> Self {
+        Self {
+            arrived: std::sync::atomic::AtomicUsize::new(0),
+            parties,
+        }
+    }
+
+    /// Arrives and spins until every party has.
+    pub fn wait(&self) {
+        use std::sync::atomic::Ordering::{AcqRel, Acquire};
+        // AcqRel/Acquire: whatever a worker did before arriving (taking its handle) happens
+        // before the others leave; nothing the benchmark measures depends on it.
+        self.arrived.fetch_add(1, AcqRel);
+        while self.arrived.load(Acquire) < self.parties {
+            std::hint::spin_loop();
+        }
+    }
+}
