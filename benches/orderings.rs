@@ -15,14 +15,19 @@
 //! * `orderings/lookup-2t/*` — two threads looking up concurrently in one pre-filled cache (time
 //!   per lookup of the pair: wall time over both threads' lookups).
 //! * `orderings/insert-2t/*` — two threads inserting concurrently into a freshly pre-filled cache,
-//!   each its own half of a batch (time per insert of the pair).
+//!   each its own half of a batch of [`INSERT_BATCH_2T`] (time per insert of the pair).
 //!
 //! Two-thread frames run on two worker threads that live for the whole benchmark function
-//! (`Pair`), start from a spinning start line ([`SpinStart`]), and are timed from the first
-//! worker's start to the last worker's end, each worker reading the clock itself. The first
-//! version spawned two threads per frame and released them with a `Barrier`: two runs of the
-//! same insert code then differed by up to 2x (fresh threads' first allocations, parked
-//! threads' wake-ups). After the groups, the bench prints each
+//! (`Pair`), are released together by a `Barrier`, and are timed from the first worker's start to
+//! the last worker's end, each worker reading the clock itself. An insert frame is
+//! [`INSERT_BATCH_2T`] records (about 1 ms per worker), so a parked worker's wake-up (tens of µs)
+//! is a small part of it.
+//!
+//! Why so: the first version spawned two threads per 1 024-record frame (~75 µs per worker), and two
+//! runs of the same insert code differed by up to 2x (fresh threads' first allocations, wake-ups
+//! as long as the work). Spinning start lines were worse on this 2-vCPU virtual machine: whenever
+//! both workers landed on one core, a spinner burnt the time slice its partner needed
+//! (3x outliers). After the groups, the bench prints each
 //! policy's median over `minimal`'s, read from criterion's `estimates.json`.
 
 mod common;
@@ -32,7 +37,7 @@ use criterion::measurement::WallTime;
 use criterion::{BenchmarkGroup, Criterion, Throughput};
 use std::hint::black_box;
 use std::path::PathBuf;
-use std::sync::{mpsc, Arc};
+use std::sync::{mpsc, Arc, Barrier};
 use std::thread;
 use std::time::{Duration, Instant};
 use wfic::cache::wf::{Minimal, MinimalControl, Orderings, ReadFence, SeqCstEverywhere};
@@ -101,11 +106,11 @@ impl<O: Orderings> Pair<O> {
         }
     }
 
-    /// One frame: both workers take a handle, start together ([`SpinStart`]) and run `work`;
+    /// One frame: both workers take a handle, pass a `Barrier` together and run `work`;
     /// returns the time from the first start to the last end. `end_frame` is not timed (WF's is
     /// a sum of counters).
     fn frame(&self, cache: &mut Arc<WaitFree<O>>, work: &Work<O>) -> Duration {
-        let start_line = Arc::new(SpinStart::new(2));
+        let start_line = Arc::new(Barrier::new(2));
         for (k, jobs) in self.jobs.iter().enumerate() {
             let (cache, work, start_line) =
                 (Arc::clone(cache), Arc::clone(work), Arc::clone(&start_line));
@@ -168,14 +173,14 @@ fn lookup_2t<O: Orderings>(g: &mut BenchmarkGroup<'_, WallTime>, id: &str) {
 
 fn insert_2t<O: Orderings>(g: &mut BenchmarkGroup<'_, WallTime>, id: &str) {
     let w = workload();
-    let batch: &'static [Record] = &w.fresh[..INSERT_BATCH];
+    let batch: &'static [Record] = &w.fresh_2t[..INSERT_BATCH_2T];
     let pair = Pair::<O>::new();
     g.bench_function(id, |b| {
         b.iter_custom(|iters| {
             let mut total = Duration::ZERO;
             let mut left = iters as usize;
             while left > 0 {
-                let n = left.min(INSERT_BATCH);
+                let n = left.min(INSERT_BATCH_2T);
                 let mut cache = Arc::new(prefilled(make::<O>(), &w.prefill));
                 // Worker 0 inserts the first half of the batch, worker 1 the second.
                 let halves = [&batch[..n - n / 2], &batch[n - n / 2..n]];

@@ -17,6 +17,9 @@ use wfic::workload::SplitMix64 as Rng;
 pub const PREFILL: usize = 4096;
 /// Distinct lookup queries, cycled through.
 pub const QUERIES: usize = 16_384;
+/// Fresh records inserted by two threads into one freshly pre-filled cache
+/// (`orderings/insert-2t/*`): large enough that a frame is about a millisecond per worker.
+pub const INSERT_BATCH_2T: usize = 8192;
 /// Fresh records inserted into one freshly pre-filled cache (`insert/*`).
 pub const INSERT_BATCH: usize = 1024;
 /// Operations (both workers together) per frame of `mixed-2t/*`, each frame on a fresh cache.
@@ -194,6 +197,9 @@ pub struct Workload {
     pub queries: Vec<(Vec3, Vec3)>,
     /// Records not in the pre-fill, for the inserts.
     pub fresh: Vec<Record>,
+    /// More records not in the pre-fill, for `orderings/insert-2t/*` ([`INSERT_BATCH_2T`]), drawn
+    /// from their own random stream so that the other fields stay as they were.
+    pub fresh_2t: Vec<Record>,
     /// Each `mixed-2t` worker's operations for one frame (`FRAME_OPS / 2` each).
     pub mixed: [Vec<Op>; 2],
 }
@@ -254,7 +260,15 @@ impl Workload {
                 .collect()
         });
 
-        for r in &fresh {
+        let mut rng_2t = Rng::new(0x2_7e4d);
+        let fresh_2t: Vec<Record> = (0..INSERT_BATCH_2T)
+            .map(|_| {
+                let sp = scene.sample(&mut rng_2t);
+                scene.record(sp, &mut rng_2t)
+            })
+            .collect();
+
+        for r in fresh.iter().chain(&fresh_2t) {
             config.check(r).expect("fresh record refused");
         }
         let w = Self {
@@ -262,6 +276,7 @@ impl Workload {
             prefill,
             queries,
             fresh,
+            fresh_2t,
             mixed,
         };
         w.report();
@@ -385,34 +400,4 @@ pub fn bench_insert<C: IrradianceCache>(
             total
         })
     });
-}
-
-/// Starts two (or more) bench workers together. `std::sync::Barrier` parks the first arrival in
-/// the kernel, and its wake-up (tens of microseconds) lands inside a timing of ~100 µs; here every
-/// arrival spins until all have arrived, so the workers start within one cache-line transfer of
-/// each other. Harness code only: the caches under test never see it.
-pub struct SpinStart {
-    arrived: std::sync::atomic::AtomicUsize,
-    parties: usize,
-}
-
-impl SpinStart {
-    /// A start line for `parties` workers.
-    pub fn new(parties: usize) -> Self {
-        Self {
-            arrived: std::sync::atomic::AtomicUsize::new(0),
-            parties,
-        }
-    }
-
-    /// Arrives and spins until every party has.
-    pub fn wait(&self) {
-        use std::sync::atomic::Ordering::{AcqRel, Acquire};
-        // AcqRel/Acquire: whatever a worker did before arriving (taking its handle) happens
-        // before the others leave; nothing the benchmark measures depends on it.
-        self.arrived.fetch_add(1, AcqRel);
-        while self.arrived.load(Acquire) < self.parties {
-            std::hint::spin_loop();
-        }
-    }
 }
