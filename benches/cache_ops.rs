@@ -178,15 +178,10 @@ fn bench_mixed<C: IrradianceCache>(
     let w = workload();
     g.bench_function(id, |b| {
         b.iter_custom(|iters| {
-            let mut total = Duration::ZERO;
-            let mut left = iters as usize;
-            while left > 0 {
-                let ops = left.min(FRAME_OPS);
+            in_frames(iters, FRAME_OPS, |ops| {
                 let mut cache = prefilled(make(w.config), &w.prefill);
-                total += frame(&mut cache, w, [ops - ops / 2, ops / 2]);
-                left -= ops;
-            }
-            total
+                frame(&mut cache, w, [ops - ops / 2, ops / 2])
+            })
         })
     });
 }

@@ -177,10 +177,7 @@ fn insert_2t<O: Orderings>(g: &mut BenchmarkGroup<'_, WallTime>, id: &str) {
     let pair = Pair::<O>::new();
     g.bench_function(id, |b| {
         b.iter_custom(|iters| {
-            let mut total = Duration::ZERO;
-            let mut left = iters as usize;
-            while left > 0 {
-                let n = left.min(INSERT_BATCH_2T);
+            in_frames(iters, INSERT_BATCH_2T, |n| {
                 let mut cache = Arc::new(prefilled(make::<O>(), &w.prefill));
                 // Worker 0 inserts the first half of the batch, worker 1 the second.
                 let halves = [&batch[..n - n / 2], &batch[n - n / 2..n]];
@@ -189,10 +186,8 @@ fn insert_2t<O: Orderings>(g: &mut BenchmarkGroup<'_, WallTime>, id: &str) {
                         let _ = black_box(h.insert(black_box(*r)));
                     }
                 });
-                total += pair.frame(&mut cache, &work);
-                left -= n;
-            }
-            total
+                pair.frame(&mut cache, &work)
+            })
         })
     });
 }

@@ -382,22 +382,32 @@ pub fn bench_insert<C: IrradianceCache>(
     let batch = &w.fresh[..INSERT_BATCH];
     g.bench_function(id, |b| {
         b.iter_custom(|iters| {
-            let mut total = Duration::ZERO;
-            let mut left = iters as usize;
-            while left > 0 {
-                let n = left.min(INSERT_BATCH);
+            in_frames(iters, INSERT_BATCH, |n| {
                 let cache = prefilled(make(w.config), &w.prefill);
                 let mut h = cache.handle(WorkerId::new(0));
                 let start = Instant::now();
                 for r in &batch[..n] {
                     let _ = black_box(h.insert(black_box(*r)));
                 }
-                total += start.elapsed();
+                let elapsed = start.elapsed();
                 drop(h.finish());
                 // The cache is dropped here, outside the timing.
-                left -= n;
-            }
-            total
+                elapsed
+            })
         })
     });
+}
+
+/// `iters` operations for criterion's `iter_custom`, in frames of at most `frame` operations (each
+/// typically on a freshly pre-filled cache): `timed(n)` runs one frame of `n` operations and
+/// returns its timed part; the sum is returned.
+pub fn in_frames(iters: u64, frame: usize, mut timed: impl FnMut(usize) -> Duration) -> Duration {
+    let mut total = Duration::ZERO;
+    let mut left = iters as usize;
+    while left > 0 {
+        let n = left.min(frame);
+        total += timed(n);
+        left -= n;
+    }
+    total
 }

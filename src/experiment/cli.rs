@@ -26,6 +26,39 @@ pub enum ReproduceCommand {
     Animation(AnimationArgs),
 }
 
+/// The sampling options both experiments share.
+#[derive(Clone, Debug, clap::Args)]
+pub struct SamplingArgs {
+    /// Hemisphere rays per irradiance record.
+    #[arg(long, default_value_t = 512)]
+    pub rays_per_record: u32,
+    /// Primary rays per pixel (each primary hit makes its own cache lookup).
+    #[arg(long, default_value_t = SPP)]
+    pub spp: u32,
+    /// Light samples (shadow rays) per primary hit.
+    #[arg(long, default_value_t = LIGHT_SAMPLES)]
+    pub light_samples: u32,
+}
+
+impl SamplingArgs {
+    /// Render settings for a `width` x `height` image, after checking every count is at least 1.
+    pub fn settings(&self, (width, height): (u32, u32)) -> Result<RenderSettings, String> {
+        for (name, v) in [
+            ("--rays-per-record", self.rays_per_record),
+            ("--spp", self.spp),
+            ("--light-samples", self.light_samples),
+        ] {
+            if v == 0 {
+                return Err(format!("{name} must be at least 1"));
+            }
+        }
+        Ok(RenderSettings::new(width, height)
+            .rays_per_record(self.rays_per_record)
+            .pixel_samples(self.spp)
+            .light_samples(self.light_samples))
+    }
+}
+
 /// Arguments of `wfic reproduce table1`.
 #[derive(Clone, Debug, clap::Args)]
 pub struct Table1Args {
@@ -58,15 +91,9 @@ pub struct Table1Args {
     /// Image height (default: as the width).
     #[arg(long)]
     pub height: Option<u32>,
-    /// Hemisphere rays per irradiance record.
-    #[arg(long, default_value_t = 512)]
-    pub rays_per_record: u32,
-    /// Primary rays per pixel (each primary hit makes its own cache lookup).
-    #[arg(long, default_value_t = SPP)]
-    pub spp: u32,
-    /// Light samples (shadow rays) per primary hit.
-    #[arg(long, default_value_t = LIGHT_SAMPLES)]
-    pub light_samples: u32,
+    /// Sampling.
+    #[command(flatten)]
+    pub sampling: SamplingArgs,
     /// No progress bar.
     #[arg(long)]
     pub quiet: bool,
@@ -93,15 +120,9 @@ pub struct AnimationArgs {
     /// Image height (default: as the width).
     #[arg(long)]
     pub height: Option<u32>,
-    /// Hemisphere rays per irradiance record.
-    #[arg(long, default_value_t = 512)]
-    pub rays_per_record: u32,
-    /// Primary rays per pixel (each primary hit makes its own cache lookup).
-    #[arg(long, default_value_t = SPP)]
-    pub spp: u32,
-    /// Light samples (shadow rays) per primary hit.
-    #[arg(long, default_value_t = LIGHT_SAMPLES)]
-    pub light_samples: u32,
+    /// Sampling.
+    #[command(flatten)]
+    pub sampling: SamplingArgs,
     /// Output directory.
     #[arg(long)]
     pub out_dir: PathBuf,
@@ -139,28 +160,6 @@ fn size(width: u32, height: Option<u32>) -> Result<(u32, u32), String> {
     Ok((width, h))
 }
 
-/// The render settings of an experiment, after checking every count is at least 1.
-fn settings(
-    (w, h): (u32, u32),
-    rays: u32,
-    spp: u32,
-    light_samples: u32,
-) -> Result<RenderSettings, String> {
-    for (name, v) in [
-        ("--rays-per-record", rays),
-        ("--spp", spp),
-        ("--light-samples", light_samples),
-    ] {
-        if v == 0 {
-            return Err(format!("{name} must be at least 1"));
-        }
-    }
-    Ok(RenderSettings::new(w, h)
-        .rays_per_record(rays)
-        .pixel_samples(spp)
-        .light_samples(light_samples))
-}
-
 /// Runs `wfic reproduce ...`.
 pub fn run(command: ReproduceCommand) -> Result<(), String> {
     let machine = Machine::detect();
@@ -174,7 +173,7 @@ pub fn run(command: ReproduceCommand) -> Result<(), String> {
             config.paired_runs = a
                 .paired_runs
                 .unwrap_or_else(|| runs.max(if a.quick { 11 } else { 15 }));
-            config.settings = settings((w, h), a.rays_per_record, a.spp, a.light_samples)?;
+            config.settings = a.sampling.settings((w, h))?;
             if !a.scenes.is_empty() {
                 config.scenes = a.scenes.clone();
             }
@@ -214,7 +213,7 @@ pub fn run(command: ReproduceCommand) -> Result<(), String> {
         }
         ReproduceCommand::Animation(a) => {
             let (w, h) = size(a.width, a.height)?;
-            let settings = settings((w, h), a.rays_per_record, a.spp, a.light_samples)?;
+            let settings = a.sampling.settings((w, h))?;
             let schemes = if a.schemes.is_empty() {
                 Scheme::CACHED.to_vec()
             } else {
