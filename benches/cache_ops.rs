@@ -36,14 +36,12 @@ use criterion::measurement::WallTime;
 use criterion::{criterion_group, criterion_main, BenchmarkGroup, Criterion, Throughput};
 use std::hint::black_box;
 use std::sync::Barrier;
-use std::thread;
 use std::time::{Duration, Instant};
 use wfic::cache::wf::{Minimal, ReadFence, SeqCstEverywhere};
 use wfic::cache::{
     CacheConfig, CacheHandle, CasFailure, IrradianceCache, LocalWrite, Locked, MutexFlavour,
     RwLockFlavour, Sequential, WaitFree,
 };
-use wfic::ic::WorkerId;
 
 // ---------------------------------------------------------------------------------------------
 // The caches under test
@@ -122,32 +120,25 @@ fn run_ops<H: CacheHandle>(h: &mut H, w: &Workload, ops: &[Op]) {
     }
 }
 
-/// One frame on two threads: each worker takes its handle, waits on the barrier, runs its
-/// operations and finishes. Returns the time from the first worker's release to the last
-/// worker's end, plus `end_frame` (LW's merge).
+/// One frame on two threads ([`wfic::cache::Frame::run`]): each worker takes its handle, waits
+/// on the barrier, runs its operations and drops the handle. Returns the time from the first
+/// worker's release to the last worker's end, plus closing the frame (LW's merge).
 fn frame_2t<C: IrradianceCache>(cache: &mut C, w: &Workload, counts: [usize; 2]) -> Duration {
     let barrier = Barrier::new(2);
-    let results = thread::scope(|s| {
-        let (shared, barrier) = (&*cache, &barrier);
-        let workers = [0, 1].map(|k| {
-            s.spawn(move || {
-                let mut h = shared.handle(WorkerId::new(k as u32));
-                barrier.wait();
-                // Each worker reads the clock right after its own release: a third (timing)
-                // thread could be scheduled late on a two-core machine.
-                let start = Instant::now();
-                run_ops(&mut h, w, &w.mixed[k][..counts[k]]);
-                let end = Instant::now();
-                (h.finish(), start, end)
-            })
-        });
-        workers.map(|t| t.join().expect("bench worker panicked"))
+    let frame = cache.frame();
+    let times = frame.run(2, |h, worker| {
+        let k = worker.index() as usize;
+        barrier.wait();
+        // Each worker reads the clock right after its own release: a third (timing) thread
+        // could be scheduled late on a two-core machine.
+        let start = Instant::now();
+        run_ops(h, w, &w.mixed[k][..counts[k]]);
+        (start, Instant::now())
     });
-    let start = results.iter().map(|r| r.1).min().unwrap();
-    let end = results.iter().map(|r| r.2).max().unwrap();
-    let residues: Vec<_> = results.into_iter().map(|r| r.0).collect();
+    let start = times.iter().map(|t| t.0).min().unwrap();
+    let end = times.iter().map(|t| t.1).max().unwrap();
     let close = Instant::now();
-    cache.end_frame(residues);
+    frame.close();
     (end - start) + close.elapsed()
 }
 
@@ -156,14 +147,12 @@ fn frame_2t<C: IrradianceCache>(cache: &mut C, w: &Workload, counts: [usize; 2])
 /// sequential baseline for the same total operation count.
 fn frame_tra(cache: &mut Sequential, w: &Workload, counts: [usize; 2]) -> Duration {
     let start = Instant::now();
-    let residues = (0..2)
-        .map(|k| {
-            let mut h = cache.handle(WorkerId::new(k as u32));
-            run_ops(&mut h, w, &w.mixed[k][..counts[k]]);
-            h.finish()
-        })
-        .collect();
-    cache.end_frame(residues);
+    let frame = cache.frame();
+    for (ops, count) in w.mixed.iter().zip(counts) {
+        let mut h = frame.handle();
+        run_ops(&mut h, w, &ops[..count]);
+    }
+    frame.close();
     start.elapsed()
 }
 

@@ -41,7 +41,7 @@ use std::sync::{mpsc, Arc, Barrier};
 use std::thread;
 use std::time::{Duration, Instant};
 use wfic::cache::wf::{Minimal, MinimalControl, Orderings, ReadFence, SeqCstEverywhere};
-use wfic::cache::{CacheHandle, CasFailure, IrradianceCache, WaitFree, WfHandle, WorkerStats};
+use wfic::cache::{CacheHandle, CasFailure, IrradianceCache, WaitFree, WfHandle};
 use wfic::ic::Record;
 use wfic::ic::WorkerId;
 
@@ -68,8 +68,8 @@ fn insert_1t<O: Orderings>(g: &mut BenchmarkGroup<'_, WallTime>, id: &str) {
 
 /// What a worker does in one frame: `work(worker, handle)` on the shared cache.
 type Work<O> = Arc<dyn Fn(usize, &mut WfHandle<'_, O>) + Send + Sync>;
-/// A worker's frame: its residue, and when it started and ended.
-type Done = (WorkerStats, Instant, Instant);
+/// A worker's frame: when it started and ended.
+type Done = (Instant, Instant);
 
 /// Two worker threads that live for a whole benchmark function, so every timed frame runs on
 /// warm threads (their allocator caches and arenas included). Spawning fresh threads for every
@@ -109,6 +109,10 @@ impl<O: Orderings> Pair<O> {
     /// One frame: both workers take a handle, pass a `Barrier` together and run `work`;
     /// returns the time from the first start to the last end. `end_frame` is not timed (WF's is
     /// a sum of counters).
+    ///
+    /// The workers outlive the frame, so this uses the low-level protocol (`handle`, then
+    /// `end_frame` once both handles are dropped), which `Frame` cannot express for threads
+    /// started before the frame; the cache's ledger still checks it.
     fn frame(&self, cache: &mut Arc<WaitFree<O>>, work: &Work<O>) -> Duration {
         let start_line = Arc::new(Barrier::new(2));
         for (k, jobs) in self.jobs.iter().enumerate() {
@@ -120,17 +124,20 @@ impl<O: Orderings> Pair<O> {
                 let start = Instant::now();
                 work(k, &mut h);
                 let end = Instant::now();
-                (h.finish(), start, end)
+                // Dropped before the result is sent: the handle's counters are in the cache
+                // when `frame` calls `end_frame`.
+                drop(h);
+                (start, end)
             });
             jobs.send(job).expect("bench worker alive");
         }
         let results = [0, 1].map(|_| self.done.recv().expect("bench worker alive"));
-        let start = results.iter().map(|r| r.1).min().unwrap();
-        let end = results.iter().map(|r| r.2).max().unwrap();
+        let start = results.iter().map(|r| r.0).min().unwrap();
+        let end = results.iter().map(|r| r.1).max().unwrap();
         // The jobs (and their clones of the cache) are gone once their results arrived.
         Arc::get_mut(cache)
             .expect("no worker holds the cache between frames")
-            .end_frame(results.into_iter().map(|r| r.0).collect());
+            .end_frame();
         end - start
     }
 }

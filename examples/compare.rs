@@ -3,7 +3,8 @@
 // The renderer is compiled out under the model checkers (`cfg(checker)`, set by build.rs).
 #[cfg(not(checker))]
 mod app {
-    use wfic::render::cli::{render_with_scheme, Scheme};
+    use wfic::cache::Scheme;
+    use wfic::render::render_with_scheme;
     use wfic::render::{scenes, RenderSettings};
 
     pub fn main() {

@@ -5,7 +5,7 @@ use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use std::io::IsTerminal;
 use std::process::ExitCode;
 use wfic::cache::IrradianceCache;
-use wfic::render::cli::{CacheJob, Scheme};
+use wfic::cache::{CacheJob, Scheme};
 use wfic::workload::{run_frame, Frame, FrameResult, Room};
 
 #[derive(Parser)]
@@ -37,7 +37,7 @@ enum Command {
 
 #[derive(clap::Args)]
 struct DemoArgs {
-    /// Schemes to run (default: all cached ones; `none` is not a cache and is skipped).
+    /// Schemes to run (default: all cached ones; `none` computes every point, for comparison).
     #[arg(long, value_enum, value_delimiter = ',')]
     scheme: Vec<Scheme>,
     /// Worker threads (TRA always runs on one).
@@ -120,23 +120,21 @@ fn demo(args: &DemoArgs) -> Result<(), String> {
         "merge",
         "discarded"
     );
-    for scheme in schemes.into_iter().filter(|s| *s != Scheme::None) {
+    for scheme in schemes {
         let threads = if scheme == Scheme::Tra {
             1
         } else {
             args.threads
         };
         let config = room.config(args.accuracy);
-        let Some(rows) = scheme.build(
+        let rows = scheme.build(
             config,
             Frames {
                 room,
                 threads,
                 args,
             },
-        ) else {
-            continue; // `none` has no cache: filtered out above
-        };
+        );
         for (frame, r) in rows.iter().enumerate() {
             let w = &r.report.workers;
             println!(

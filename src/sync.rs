@@ -45,11 +45,16 @@ mod imp {
 pub use imp::*;
 
 /// Primitives the model checkers must *not* see: std's, whatever the feature. Only for
-/// instrumentation that watches the checked code without taking part in it (the linearizability
-/// recorder's clock): under loom or shuttle these add no happens-before edge and no schedule point,
-/// so they cannot hide a bug. Never use them in the caches.
+/// instrumentation and bookkeeping that watch the checked code without taking part in its
+/// protocol: the linearizability recorder's clock, and the frame ledger of
+/// [`crate::cache::frame`] (locked once when a handle is made and once when it is dropped, never
+/// on a lookup or an insert, and holding nothing that another worker reads during the frame).
+/// Under loom or shuttle these are invisible: no schedule point, and no happens-before edge in
+/// the checker's view. A checker that cannot see an edge explores more executions, not fewer, so
+/// they cannot hide a bug. Never use them for data that workers exchange.
 pub mod unchecked {
-    pub use std::sync::atomic::{AtomicU64, Ordering};
+    pub use std::sync::atomic::{AtomicU32, AtomicU64, Ordering};
+    pub use std::sync::Mutex;
 }
 pub use std::sync::{LockResult, PoisonError, TryLockError};
 

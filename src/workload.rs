@@ -11,9 +11,7 @@ use crate::cache::CacheConfig;
 use crate::cache::{CacheHandle, FrameReport, IrradianceCache};
 use crate::ic::Record;
 #[cfg(not(checker))]
-use crate::ic::WorkerId;
-#[cfg(not(checker))]
-use crate::sync::{thread, AtomicUsize, Ordering};
+use crate::sync::{AtomicUsize, Ordering};
 use glam::Vec3;
 #[cfg(not(checker))]
 use std::time::{Duration, Instant};
@@ -152,8 +150,8 @@ pub struct FrameResult {
 #[cfg(not(checker))]
 const CHUNK: usize = 256;
 
-/// Runs one frame of `frame` on `cache` with `frame.threads` workers; `progress` is called with the
-/// number of points finished so far (from worker threads).
+/// Runs one frame of `frame` on `cache` with `frame.threads` workers ([`crate::cache::Frame::run`]);
+/// `progress` is called with the number of points finished so far (from worker threads).
 #[cfg(not(checker))]
 pub fn run_frame<C: IrradianceCache>(
     cache: &mut C,
@@ -162,49 +160,35 @@ pub fn run_frame<C: IrradianceCache>(
 ) -> FrameResult {
     let start = Instant::now();
     let next = AtomicUsize::new(0);
-    let residues: Vec<C::Residue> = thread::scope(|s| {
-        let cache = &*cache;
-        let next = &next;
-        let workers: Vec<_> = (0..frame.threads)
-            .map(|t| {
-                s.spawn(move || {
-                    let mut handle = cache.handle(WorkerId::new(t));
-                    let mut sink = 0u64;
-                    loop {
-                        // Relaxed: the counter only hands out distinct chunks; no data is published
-                        // through it (each chunk's points are generated from its index).
-                        let chunk = next.fetch_add(1, Ordering::Relaxed);
-                        let first = chunk * CHUNK;
-                        if first >= frame.points {
-                            break;
-                        }
-                        let last = (first + CHUNK).min(frame.points);
-                        let mut rng = SplitMix64::new(
-                            frame.seed ^ (chunk as u64).wrapping_mul(0x2545_f491_4f6c_dd1d),
-                        );
-                        for _ in first..last {
-                            let (p, n) = frame.room.surface_point(&mut rng);
-                            if handle.lookup(p, n).is_none() {
-                                sink ^= busy_work(frame.work_per_record, rng.next_u64());
-                                let record = frame.room.record(&mut rng, p, n);
-                                handle
-                                    .insert(record)
-                                    .expect("room records are valid and inside the bounds");
-                            }
-                        }
-                        progress(last);
-                    }
-                    std::hint::black_box(sink);
-                    handle.finish()
-                })
-            })
-            .collect();
-        workers
-            .into_iter()
-            .map(|w| w.join().expect("a synthetic worker panicked"))
-            .collect()
+    let open = cache.frame();
+    open.run(frame.threads as usize, |handle, _| {
+        let mut sink = 0u64;
+        loop {
+            // Relaxed: the counter only hands out distinct chunks; no data is published through
+            // it (each chunk's points are generated from its index).
+            let chunk = next.fetch_add(1, Ordering::Relaxed);
+            let first = chunk * CHUNK;
+            if first >= frame.points {
+                break;
+            }
+            let last = (first + CHUNK).min(frame.points);
+            let mut rng =
+                SplitMix64::new(frame.seed ^ (chunk as u64).wrapping_mul(0x2545_f491_4f6c_dd1d));
+            for _ in first..last {
+                let (p, n) = frame.room.surface_point(&mut rng);
+                if handle.lookup(p, n).is_none() {
+                    sink ^= busy_work(frame.work_per_record, rng.next_u64());
+                    let record = frame.room.record(&mut rng, p, n);
+                    handle
+                        .insert(record)
+                        .expect("room records are valid and inside the bounds");
+                }
+            }
+            progress(last);
+        }
+        std::hint::black_box(sink);
     });
-    let report = cache.end_frame(residues);
+    let report = open.close();
     FrameResult {
         wall: start.elapsed(),
         report,

@@ -92,12 +92,13 @@ struct Agree<'a> {
 impl SchemeCheck for Agree<'_> {
     fn check<C: IrradianceCache>(&mut self, mut cache: C) {
         let scheme = cache.scheme();
-        let mut writer = cache.handle(w(0));
+        let frame = cache.frame();
+        let mut writer = frame.handle_for(w(0));
         for r in self.records {
             writer.insert(*r).expect("valid record refused");
         }
-        let residue = writer.finish();
-        cache.end_frame(vec![residue]);
+        drop(writer);
+        frame.close();
         assert_eq!(
             cache.stats().records,
             self.records.len(),
@@ -105,7 +106,8 @@ impl SchemeCheck for Agree<'_> {
         );
 
         let a = cache.config().accuracy();
-        let mut reader = cache.handle(w(1));
+        let frame = cache.frame();
+        let mut reader = frame.handle_for(w(1));
         let mut answers = Vec::new();
         for &(p, n) in self.queries {
             let got = reader.lookup(p, n);
@@ -136,6 +138,8 @@ impl SchemeCheck for Agree<'_> {
             assert_eq!(ids, want_ids, "{scheme}: valid set at {p} {n}");
             assert!(found.iter().all(Record::is_intact), "{scheme}: torn record");
         }
+        drop(reader);
+        frame.close();
         self.answers.push((scheme, answers));
     }
 }

@@ -269,11 +269,11 @@ fn wf_lookup_is_not_linearizable_hand_built_schedule() {
     let mut cache = WaitFree::<wfic::cache::wf::Minimal>::new(world(), CasFailure::Adopt);
     let mut w = cache.handle(WorkerId::new(1));
     w.insert(root_record(id(1, 0))).unwrap();
-    w.finish();
+    drop(w);
     assert_eq!(cache.stats().nodes, 1, "A is stored in the root");
     let mut w = cache.handle(WorkerId::new(2));
     w.insert(deep_record(id(2, 0))).unwrap();
-    w.finish();
+    drop(w);
     assert!(cache.stats().nodes > 2, "B is stored below the root");
     let mut w = cache.handle(WorkerId::new(0));
     let mut seen = Vec::new();
@@ -310,7 +310,7 @@ fn wf_lookup_is_not_linearizable_real_threads() {
             let r = Record::new(P + Vec3::Y * (k as f32 * 1e-5), Vec3::NEG_Z, Vec3::ONE, 8.0);
             pad.insert(r).unwrap();
         }
-        pad.finish();
+        drop(pad);
         cache
     };
     // How long a lookup scans the padded root list: the writer's delays spread over it.
@@ -394,8 +394,6 @@ struct DropsEveryThird<H> {
 }
 
 impl<H: CacheHandle> CacheHandle for DropsEveryThird<H> {
-    type Residue = H::Residue;
-
     fn worker(&self) -> WorkerId {
         self.inner.worker()
     }
@@ -422,10 +420,6 @@ impl<H: CacheHandle> CacheHandle for DropsEveryThird<H> {
 
     fn stats(&self) -> &wfic::cache::WorkerStats {
         self.inner.stats()
-    }
-
-    fn finish(self) -> H::Residue {
-        self.inner.finish()
     }
 }
 

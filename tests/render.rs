@@ -7,8 +7,10 @@
 
 use glam::Vec3;
 use std::path::PathBuf;
+use wfic::cache::Scheme;
 use wfic::cache::{CasFailure, LocalWrite, Sequential, WaitFree};
-use wfic::render::cli::{render_with_scheme, run_render, RenderArgs, Scheme};
+use wfic::render::cli::{run_render, RenderArgs};
+use wfic::render::render_with_scheme;
 use wfic::render::{self, obj, scenes, Camera, Image, RenderSettings};
 
 fn small(size: u32) -> RenderSettings {

@@ -20,7 +20,8 @@ struct BadInput;
 impl SchemeCheck for BadInput {
     fn check<C: IrradianceCache>(&mut self, mut cache: C) {
         let scheme = cache.scheme();
-        let mut h = cache.handle(w(0));
+        let frame = cache.frame();
+        let mut h = frame.handle_for(w(0));
         h.insert(good()).unwrap();
 
         let mut nan = good();
@@ -86,8 +87,8 @@ impl SchemeCheck for BadInput {
         assert_eq!(hit.records, 1);
         assert_eq!(h.stats().rejected, 6, "{scheme}");
         assert_eq!(h.stats().stored, 1, "{scheme}");
-        let residue = h.finish();
-        cache.end_frame(vec![residue]);
+        drop(h);
+        frame.close();
         // The cache is unchanged by the refused records.
         let snapshot = cache.snapshot();
         assert_eq!(snapshot.len(), 1, "{scheme}");
@@ -129,22 +130,24 @@ fn big_record(i: u64) -> Record {
 impl SchemeCheck for OneBigNode {
     fn check<C: IrradianceCache>(&mut self, mut cache: C) {
         let scheme = cache.scheme();
-        let mut h = cache.handle(w(0));
+        let frame = cache.frame();
+        let mut h = frame.handle_for(w(0));
         for i in 0..BIG {
             assert!(
                 matches!(h.insert(big_record(i)), Ok(Inserted::Stored(_))),
                 "{scheme}"
             );
         }
-        let residue = h.finish();
-        cache.end_frame(vec![residue]);
+        drop(h);
+        frame.close();
         let stats = cache.stats();
         assert_eq!(
             (stats.records, stats.nodes),
             (BIG as usize, 1),
             "{scheme}: one node"
         );
-        let mut h = cache.handle(w(1));
+        let frame = cache.frame();
+        let mut h = frame.handle_for(w(1));
         let mut found = Vec::new();
         h.valid_records(Vec3::splat(5.0), Vec3::Z, &mut found);
         assert_eq!(found.len() as u64, BIG, "{scheme}");
@@ -155,8 +158,8 @@ impl SchemeCheck for OneBigNode {
             h.lookup(Vec3::splat(5.0), Vec3::Z).unwrap().records as u64,
             BIG
         );
-        let residue = h.finish();
-        cache.end_frame(vec![residue]);
+        drop(h);
+        frame.close();
     }
 }
 
@@ -170,13 +173,15 @@ fn one_node_holds_a_hundred_thousand_records() {
 /// everything is there.
 #[test]
 fn wf_one_list_grows_under_concurrent_writers_and_a_reader() {
-    let cache = WaitFree::<wfic::cache::wf::Minimal>::new(common::world(0.3), CasFailure::Adopt);
+    let mut cache =
+        WaitFree::<wfic::cache::wf::Minimal>::new(common::world(0.3), CasFailure::Adopt);
     let per_writer = 50_000u64;
+    let frame = cache.frame();
     thread::scope(|s| {
         for t in 0..2u32 {
-            let cache = &cache;
+            let frame = &frame;
             s.spawn(move || {
-                let mut h = cache.handle(w(t));
+                let mut h = frame.handle_for(w(t));
                 for i in 0..per_writer {
                     let mut r = record_for(t, i);
                     r.normal = Vec3::Z;
@@ -187,9 +192,9 @@ fn wf_one_list_grows_under_concurrent_writers_and_a_reader() {
                 }
             });
         }
-        let cache = &cache;
+        let frame = &frame;
         s.spawn(move || {
-            let mut h = cache.handle(w(9));
+            let mut h = frame.handle_for(w(9));
             let mut found = Vec::new();
             let mut last = 0;
             let mut scans = 0;
@@ -216,38 +221,41 @@ fn wf_one_list_grows_under_concurrent_writers_and_a_reader() {
 }
 
 /// A worker that panics mid-frame: the others go on, the cache stays whole; LCK's and TRA's locks
-/// are recovered from poisoning. (LW loses the panicked worker's local, unmerged records: they die
-/// with its handle.)
+/// are recovered from poisoning. The panicked worker's handle is dropped as it unwinds, so its
+/// counters and every record it inserted whole reach the frame's close: LW merges them too.
 struct PanickingWorker;
 
 impl SchemeCheck for PanickingWorker {
     fn check<C: IrradianceCache>(&mut self, mut cache: C) {
         let scheme = cache.scheme();
-        let (panicked, survivor) = thread::scope(|s| {
-            let cache = &cache;
+        let frame = cache.frame();
+        let panicked = thread::scope(|s| {
+            let frame = &frame;
             let doomed = s.spawn(move || {
-                let mut h = cache.handle(w(0));
+                let mut h = frame.handle_for(w(0));
                 for i in 0..500 {
                     h.insert(record_for(0, i)).unwrap();
                 }
                 panic!("worker 0 dies mid-frame");
             });
             let panicked = doomed.join().is_err();
-            let survivor = s
-                .spawn(move || {
-                    let mut h = cache.handle(w(1));
-                    for i in 0..500 {
-                        h.insert(record_for(1, i)).unwrap();
-                        h.lookup(record_for(0, i).position, record_for(0, i).normal);
-                    }
-                    h.finish()
-                })
-                .join()
-                .unwrap();
-            (panicked, survivor)
+            s.spawn(move || {
+                let mut h = frame.handle_for(w(1));
+                for i in 0..500 {
+                    h.insert(record_for(1, i)).unwrap();
+                    h.lookup(record_for(0, i).position, record_for(0, i).normal);
+                }
+            })
+            .join()
+            .unwrap();
+            panicked
         });
         assert!(panicked);
-        cache.end_frame(vec![survivor]);
+        let report = frame.close();
+        assert_eq!(
+            report.workers.stored, 1000,
+            "{scheme}: both workers' counters"
+        );
         let snapshot = cache.snapshot();
         assert!(snapshot.iter().all(is_genuine), "{scheme}");
         let from = |worker| {
@@ -257,19 +265,15 @@ impl SchemeCheck for PanickingWorker {
                 .count()
         };
         assert_eq!(from(1), 500, "{scheme}: the survivor's records");
-        let expected_dead = if scheme == "lw" { 0 } else { 500 };
-        assert_eq!(
-            from(0),
-            expected_dead,
-            "{scheme}: the panicked worker's records"
-        );
+        assert_eq!(from(0), 500, "{scheme}: the panicked worker's records");
         // And the cache keeps working.
-        let mut h = cache.handle(w(2));
+        let frame = cache.frame();
+        let mut h = frame.handle_for(w(2));
         h.insert(record_for(2, 0)).unwrap();
         let r = record_for(1, 7);
         assert!(h.lookup(r.position, r.normal).is_some(), "{scheme}");
-        let residue = h.finish();
-        cache.end_frame(vec![residue]);
+        drop(h);
+        frame.close();
     }
 }
 

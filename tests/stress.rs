@@ -22,8 +22,7 @@ struct Stress {
     threads: u32,
 }
 
-struct WorkerOutcome<R> {
-    residue: R,
+struct WorkerOutcome {
     inserted: Vec<Inserted>,
     checked_reads: u64,
 }
@@ -37,15 +36,16 @@ impl SchemeCheck for Stress {
         let mut inserted: Vec<Inserted> = Vec::new();
         let mut checked_reads = 0;
         for frame in 0..FRAMES {
-            let outcomes: Vec<WorkerOutcome<C::Residue>> = thread::scope(|s| {
-                let cache = &cache;
+            let open = cache.frame();
+            let outcomes: Vec<WorkerOutcome> = thread::scope(|s| {
+                let open = &open;
                 let workers: Vec<_> = (0..threads)
                     .map(|t| {
                         s.spawn(move || {
                             // One worker number per thread and frame, so that the handle's
                             // record numbering (from 0 per handle) matches the generator's.
                             let worker = frame as u32 * threads + t;
-                            let mut handle = cache.handle(w(worker));
+                            let mut handle = open.handle_for(w(worker));
                             let mut rng = Rng::new(u64::from(t) * 7919 + frame);
                             let mut inserted = Vec::with_capacity(per_frame as usize);
                             let mut found = Vec::new();
@@ -76,7 +76,6 @@ impl SchemeCheck for Stress {
                                 }
                             }
                             WorkerOutcome {
-                                residue: handle.finish(),
                                 inserted,
                                 checked_reads,
                             }
@@ -85,13 +84,11 @@ impl SchemeCheck for Stress {
                     .collect();
                 workers.into_iter().map(|h| h.join().unwrap()).collect()
             });
-            let mut residues = Vec::new();
             for o in outcomes {
-                residues.push(o.residue);
                 inserted.extend(o.inserted);
                 checked_reads += o.checked_reads;
             }
-            let report = cache.end_frame(residues);
+            let report = open.close();
             assert_eq!(report.workers.inserts, per_frame * u64::from(threads));
         }
         // The racing reads did meet records (otherwise they checked nothing).
@@ -112,7 +109,7 @@ impl SchemeCheck for Stress {
             .iter()
             .filter_map(|o| match o {
                 Inserted::Stored(id) => Some(*id),
-                Inserted::Discarded(_) => None,
+                Inserted::Discarded(_) | Inserted::NotCached(_) => None,
             })
             .collect();
         match scheme {
@@ -139,7 +136,8 @@ impl SchemeCheck for Stress {
         );
 
         // Every stored record is found by a lookup at its own position, exactly once.
-        let mut handle = cache.handle(w(threads * FRAMES as u32 + 1));
+        let open = cache.frame();
+        let mut handle = open.handle_for(w(threads * FRAMES as u32 + 1));
         let mut found = Vec::new();
         for id in &stored {
             let r = record_for(id.worker().index(), id.seq());
@@ -149,8 +147,8 @@ impl SchemeCheck for Stress {
             assert_eq!(hits, 1, "{scheme}: record {id} found {hits} times");
             assert!(handle.lookup(r.position, r.normal).is_some());
         }
-        let residue = handle.finish();
-        cache.end_frame(vec![residue]);
+        drop(handle);
+        open.close();
     }
 }
 

@@ -320,14 +320,13 @@ pub fn workload() -> &'static Workload {
 
 /// `cache` with `records` inserted by a previous frame's worker.
 pub fn prefilled<C: IrradianceCache>(mut cache: C, records: &[Record]) -> C {
-    let residue = {
-        let mut h = cache.handle(PREFILL_WORKER);
-        for r in records {
-            h.insert(*r).expect("pre-fill record refused");
-        }
-        h.finish()
-    };
-    cache.end_frame(vec![residue]);
+    let frame = cache.frame();
+    let mut h = frame.handle_for(PREFILL_WORKER);
+    for r in records {
+        h.insert(*r).expect("pre-fill record refused");
+    }
+    drop(h);
+    frame.close();
     cache
 }
 
@@ -352,7 +351,8 @@ pub fn bench_lookup<C: IrradianceCache>(
     let mut cache = prefilled(make(w.config), &w.prefill);
     g.bench_function(id, |b| {
         b.iter_custom(|iters| {
-            let mut h = cache.handle(WorkerId::new(0));
+            let frame = cache.frame();
+            let mut h = frame.handle();
             let mut i = 0;
             let start = Instant::now();
             for _ in 0..iters {
@@ -364,8 +364,8 @@ pub fn bench_lookup<C: IrradianceCache>(
                 }
             }
             let elapsed = start.elapsed();
-            let residue = h.finish();
-            cache.end_frame(vec![residue]);
+            drop(h);
+            frame.close();
             elapsed
         })
     });
@@ -383,15 +383,16 @@ pub fn bench_insert<C: IrradianceCache>(
     g.bench_function(id, |b| {
         b.iter_custom(|iters| {
             in_frames(iters, INSERT_BATCH, |n| {
-                let cache = prefilled(make(w.config), &w.prefill);
-                let mut h = cache.handle(WorkerId::new(0));
+                let mut cache = prefilled(make(w.config), &w.prefill);
+                let frame = cache.frame();
+                let mut h = frame.handle();
                 let start = Instant::now();
                 for r in &batch[..n] {
                     let _ = black_box(h.insert(black_box(*r)));
                 }
                 let elapsed = start.elapsed();
-                drop(h.finish());
-                // The cache is dropped here, outside the timing.
+                drop(h);
+                // The frame is closed and the cache dropped here, outside the timing.
                 elapsed
             })
         })

@@ -14,15 +14,19 @@
 //! use glam::Vec3;
 //! let mut lw = LocalWrite::new(CacheConfig::new(Vec3::ZERO, Vec3::ONE, 0.3).unwrap());
 //! let handle = lw.handle(WorkerId::new(0));
-//! lw.end_frame(Vec::new()); // error: `lw` is borrowed by `handle`
-//! handle.finish();
+//! lw.end_frame(); // error: `lw` is borrowed by `handle`
+//! drop(handle);
 //! ```
+//!
+//! A worker's local records reach the merge however its handle ends: dropped at the end of its
+//! work, or unwound by a panic (the records it holds were each inserted whole).
 //!
 //! Deviations from Listing 5 (see `paper-notes.md`): the listing consults the local cache only when
 //! the global one *found* something (`if (inIC)`, a slip for `if (!inIC)`); and even corrected it
 //! would answer from one of the two caches. Here one lookup averages the valid records of both,
 //! which is exactly what a single merged cache would answer.
 
+use super::frame::{sum_stats, Ledger};
 use super::{
     collect_valid, CacheConfig, CacheHandle, CacheStats, FrameReport, HandleCore, Inserted,
     IrradianceCache, Octree, WorkerStats,
@@ -35,6 +39,7 @@ use std::time::Instant;
 #[derive(Debug)]
 pub struct LocalWrite {
     global: Octree,
+    ledger: Ledger<Octree>,
     stats: CacheStats,
 }
 
@@ -43,29 +48,23 @@ impl LocalWrite {
     pub fn new(config: CacheConfig) -> Self {
         Self {
             global: Octree::new(config),
+            ledger: Ledger::new(),
             stats: CacheStats::default(),
         }
     }
 }
 
-/// An LW worker: the shared global octree and the worker's own local one.
+/// An LW worker: the shared global octree and the worker's own local one (in its core, which
+/// hands it to the merge when the handle is dropped).
 #[derive(Debug)]
+#[must_use = "a handle does nothing unless it is used"]
 pub struct LwHandle<'c> {
     global: &'c Octree,
-    local: Octree,
-    core: HandleCore,
-}
-
-/// What an LW worker hands to the merge.
-#[derive(Debug)]
-pub struct LwResidue {
-    local: Octree,
-    stats: WorkerStats,
+    core: HandleCore<'c, Octree>,
 }
 
 impl IrradianceCache for LocalWrite {
     type Handle<'c> = LwHandle<'c>;
-    type Residue = LwResidue;
 
     fn scheme(&self) -> &'static str {
         "lw"
@@ -78,22 +77,22 @@ impl IrradianceCache for LocalWrite {
     fn handle(&self, worker: WorkerId) -> LwHandle<'_> {
         LwHandle {
             global: &self.global,
-            local: Octree::new(*self.global.config()),
-            core: HandleCore::new(worker, self.stats.frames),
+            core: HandleCore::new(&self.ledger, worker, Octree::new(*self.global.config())),
         }
     }
 
-    fn end_frame(&mut self, residues: Vec<LwResidue>) -> FrameReport {
+    fn end_frame(&mut self) -> FrameReport {
+        let deposits = self.ledger.close();
         let mut report = FrameReport::default();
         let start = Instant::now();
-        for residue in &residues {
-            for record in residue.local.records() {
+        for deposit in &deposits {
+            for record in deposit.local.records() {
                 // Admitted by the handle already: same bounds, validated and sealed.
                 self.global.insert_admitted(*record);
             }
         }
         report.merge = start.elapsed();
-        residues.iter().for_each(|r| report.workers += &r.stats);
+        report.workers = sum_stats(&deposits);
         self.stats.totals += &report.workers;
         self.stats.merge += report.merge;
         self.stats.frames += 1;
@@ -114,8 +113,6 @@ impl IrradianceCache for LocalWrite {
 }
 
 impl CacheHandle for LwHandle<'_> {
-    type Residue = LwResidue;
-
     fn worker(&self) -> WorkerId {
         self.core.worker
     }
@@ -129,20 +126,20 @@ impl CacheHandle for LwHandle<'_> {
             acc.add(r);
         };
         let mut nodes = self.global.visit(point, &mut add);
-        if !self.local.is_empty() {
-            nodes += self.local.visit(point, &mut add);
+        if !self.core.local.is_empty() {
+            nodes += self.core.local.visit(point, &mut add);
         }
         self.core.end_lookup(&acc, nodes)
     }
 
     fn insert(&mut self, record: Record) -> Result<Inserted, InsertError> {
         let record = self.core.admit(self.global.config(), record)?;
-        let steps = self.local.insert_admitted(record);
+        let steps = self.core.local.insert_admitted(record);
         Ok(self.core.inserted(Inserted::Stored(record.id()), steps))
     }
 
     fn valid_records(&mut self, point: Vec3, normal: Vec3, out: &mut Vec<Record>) {
-        let (global, local) = (self.global, &self.local);
+        let (global, local) = (self.global, &self.core.local);
         collect_valid(global.config(), point, normal, out, |p, f| {
             global.visit(p, &mut |r| f(r)) + local.visit(p, &mut |r| f(r))
         });
@@ -150,12 +147,5 @@ impl CacheHandle for LwHandle<'_> {
 
     fn stats(&self) -> &WorkerStats {
         &self.core.stats
-    }
-
-    fn finish(self) -> LwResidue {
-        LwResidue {
-            local: self.local,
-            stats: self.core.stats,
-        }
     }
 }

@@ -6,6 +6,7 @@
 //! the lock; only when that fails is the wait timed, so an uncontended acquisition costs no clock
 //! reads. The time spent waiting is summed over workers (the paper's LCK overhead in Table 1).
 
+use super::frame::{sum_stats, Ledger};
 use super::{
     collect_valid, CacheConfig, CacheHandle, CacheStats, FrameReport, HandleCore, Inserted,
     IrradianceCache, Octree, WorkerStats,
@@ -135,6 +136,7 @@ fn contended<G>(wait: &mut Duration, block: impl FnOnce() -> G) -> G {
 pub struct Locked<F: LockFlavour = MutexFlavour> {
     config: CacheConfig,
     tree: F,
+    ledger: Ledger<()>,
     stats: CacheStats,
 }
 
@@ -144,6 +146,7 @@ impl<F: LockFlavour> Locked<F> {
         Self {
             config,
             tree: F::new(Octree::new(config)),
+            ledger: Ledger::new(),
             stats: CacheStats::default(),
         }
     }
@@ -151,9 +154,10 @@ impl<F: LockFlavour> Locked<F> {
 
 /// An LCK worker.
 #[derive(Debug)]
+#[must_use = "a handle does nothing unless it is used"]
 pub struct LckHandle<'c, F: LockFlavour> {
     cache: &'c Locked<F>,
-    core: HandleCore,
+    core: HandleCore<'c, ()>,
 }
 
 impl<F: LockFlavour> IrradianceCache for Locked<F> {
@@ -161,7 +165,6 @@ impl<F: LockFlavour> IrradianceCache for Locked<F> {
         = LckHandle<'c, F>
     where
         F: 'c;
-    type Residue = WorkerStats;
 
     fn scheme(&self) -> &'static str {
         F::NAME
@@ -174,13 +177,16 @@ impl<F: LockFlavour> IrradianceCache for Locked<F> {
     fn handle(&self, worker: WorkerId) -> LckHandle<'_, F> {
         LckHandle {
             cache: self,
-            core: HandleCore::new(worker, self.stats.frames),
+            core: HandleCore::new(&self.ledger, worker, ()),
         }
     }
 
-    fn end_frame(&mut self, residues: Vec<WorkerStats>) -> FrameReport {
-        let mut report = FrameReport::default();
-        residues.iter().for_each(|s| report.workers += s);
+    fn end_frame(&mut self) -> FrameReport {
+        let deposits = self.ledger.close();
+        let report = FrameReport {
+            workers: sum_stats(&deposits),
+            ..FrameReport::default()
+        };
         self.stats.totals += &report.workers;
         self.stats.frames += 1;
         report
@@ -201,8 +207,6 @@ impl<F: LockFlavour> IrradianceCache for Locked<F> {
 }
 
 impl<F: LockFlavour> CacheHandle for LckHandle<'_, F> {
-    type Residue = WorkerStats;
-
     fn worker(&self) -> WorkerId {
         self.core.worker
     }
@@ -247,10 +251,6 @@ impl<F: LockFlavour> CacheHandle for LckHandle<'_, F> {
 
     fn stats(&self) -> &WorkerStats {
         &self.core.stats
-    }
-
-    fn finish(self) -> WorkerStats {
-        self.core.stats
     }
 }
 

@@ -7,26 +7,37 @@
 //! | LW  | [`LocalWrite`] | Listing 5 |
 //! | WF  | [`WaitFree`] (`Adopt` or `Discard`) | Listing 6, with the fixes in `paper-notes.md` |
 //!
-//! A cache is shared by reference between the workers of a frame; each worker asks it for a
-//! [`CacheHandle`], which carries the worker's own state (counters, LW's local cache) so nothing on
-//! the hot path writes shared memory but the cache itself. After the workers join, the frame is
-//! closed with [`IrradianceCache::end_frame`], which takes `&mut self`: LW merges there, and the
-//! borrow checker rules out a handle that outlives the frame.
+//! plus [`NoCache`], the no-cache reference, behind the same trait.
+//!
+//! A cache is used in frames ([`frame`]): a [`Frame`] hands each worker a [`CacheHandle`] with a
+//! distinct worker id; the handle carries the worker's own state (counters, LW's local cache) so
+//! nothing on the hot path writes shared memory but the cache itself, and leaves that state in the
+//! cache when it is dropped. Closing the frame takes `&mut` access: LW merges there, and the
+//! borrow checker rules out a handle that outlives the frame. [`Scheme`] lists the schemes.
 
+pub mod frame;
 mod local_write;
 mod locked;
+mod none;
 pub mod octree;
 mod oracle;
+mod scheme;
 mod sequential;
 pub mod wf;
 
+#[cfg(not(checker))]
+pub use frame::run_frame;
+pub use frame::Frame;
 pub use local_write::{LocalWrite, LwHandle};
 pub use locked::{LckHandle, LockFlavour, Locked, MutexFlavour, RwLockFlavour};
+pub use none::{NoCache, NoCacheHandle};
 pub use oracle::BruteForce;
+pub use scheme::{CacheJob, Rgb8, Scheme};
 pub use sequential::{Octree, SeqHandle, Sequential};
 pub use wf::{CasFailure, WaitFree, WfHandle};
 
 use crate::ic::{self, Accumulator, InsertError, Interpolated, Record, RecordId, WorkerId};
+use frame::{Deposit, Ledger, Local};
 use glam::Vec3;
 use octree::{Cell, Geometry};
 use std::fmt;
@@ -133,13 +144,15 @@ pub enum Inserted {
     /// Not stored: the WF `Discard` policy lost a race to create a child node (paper §3.3). The
     /// caller still uses the sample for the pixel it computed it for.
     Discarded(RecordId),
+    /// Not stored because the backend keeps nothing ([`NoCache`], the reference).
+    NotCached(RecordId),
 }
 
 impl Inserted {
     /// The id the record was given.
     pub fn id(self) -> RecordId {
         match self {
-            Self::Stored(id) | Self::Discarded(id) => id,
+            Self::Stored(id) | Self::Discarded(id) | Self::NotCached(id) => id,
         }
     }
 }
@@ -214,28 +227,45 @@ pub struct CacheStats {
 /// A shared irradiance cache.
 ///
 /// `Sync`: workers share it by reference during a frame. Everything a worker changes for itself
-/// lives in its [`CacheHandle`].
+/// lives in its [`CacheHandle`]. Use it through [`IrradianceCache::frame`] (or [`run_frame`]);
+/// [`IrradianceCache::handle`] and [`IrradianceCache::end_frame`] are the low-level protocol
+/// underneath, for the model checkers and for benchmarks whose threads outlive a frame.
 pub trait IrradianceCache: Send + Sync {
     /// A worker's handle, borrowing the cache for the frame.
-    type Handle<'c>: CacheHandle<Residue = Self::Residue>
+    type Handle<'c>: CacheHandle
     where
         Self: 'c;
-    /// What a handle leaves behind for [`end_frame`](Self::end_frame).
-    type Residue: Send;
 
-    /// The scheme's short name, as the CLI spells it.
+    /// The scheme's short name, as the CLI spells it ([`Scheme::name`]).
     fn scheme(&self) -> &'static str;
 
     /// The cache's configuration.
     fn config(&self) -> &CacheConfig;
 
-    /// A handle for `worker` in the current frame. Use each worker number for one handle per
-    /// frame: record ids are made of the worker number, the frame number and a count per handle.
+    /// Opens a frame: the entry point for everything that uses the cache.
+    fn frame(&mut self) -> Frame<'_, Self>
+    where
+        Self: Sized,
+    {
+        Frame::new(self)
+    }
+
+    /// Low-level (model checkers, persistent-worker benchmarks; others use [`Frame`]): a handle
+    /// for `worker` in the open frame. Record ids are made of the worker number, the frame number
+    /// and a count per handle, so each worker number gets one handle per frame. The handle leaves
+    /// its counters (and LW's local records) in the cache when it is dropped.
+    ///
+    /// # Panics
+    /// If `worker` already has a handle in the open frame.
     fn handle(&self, worker: WorkerId) -> Self::Handle<'_>;
 
-    /// Closes a frame with what its handles left: sums their counters and, for LW, merges the
-    /// local caches into the global one (timed).
-    fn end_frame(&mut self, residues: Vec<Self::Residue>) -> FrameReport;
+    /// Low-level (see [`IrradianceCache::handle`]; [`Frame`] calls it when it closes): closes the
+    /// open frame with what its handles left: sums their counters and, for LW, merges the local
+    /// caches into the global one (timed). No handle can be alive: this takes `&mut self`.
+    ///
+    /// # Panics
+    /// If a handle of the frame was leaked (`mem::forget`): its records would be lost.
+    fn end_frame(&mut self) -> FrameReport;
 
     /// Every stored record (any order).
     fn snapshot(&mut self) -> Vec<Record>;
@@ -244,11 +274,9 @@ pub trait IrradianceCache: Send + Sync {
     fn stats(&mut self) -> CacheStats;
 }
 
-/// A worker's access to a cache during a frame.
+/// A worker's access to a cache during a frame. Dropping it leaves its counters (and LW's local
+/// records) in the cache for the frame's close.
 pub trait CacheHandle {
-    /// What the handle leaves for [`IrradianceCache::end_frame`].
-    type Residue;
-
     /// The worker this handle belongs to.
     fn worker(&self) -> WorkerId;
 
@@ -266,27 +294,44 @@ pub trait CacheHandle {
 
     /// This handle's counters so far.
     fn stats(&self) -> &WorkerStats;
-
-    /// Ends the handle's frame.
-    fn finish(self) -> Self::Residue;
 }
 
-/// The bookkeeping every handle shares: identity, record numbering, counters.
-#[derive(Clone, Debug)]
-pub(crate) struct HandleCore {
+/// The bookkeeping every handle shares: identity, record numbering, counters, the scheme's own
+/// part (`X`: LW's local octree), and the ledger it goes back to when the handle is dropped.
+#[derive(Debug)]
+pub(crate) struct HandleCore<'c, X: Local> {
     pub worker: WorkerId,
     pub frame: u64,
     pub next_seq: u64,
     pub stats: WorkerStats,
+    pub local: X,
+    ledger: &'c Ledger<X>,
 }
 
-impl HandleCore {
-    pub fn new(worker: WorkerId, frame: u64) -> Self {
+impl<X: Local> Drop for HandleCore<'_, X> {
+    fn drop(&mut self) {
+        self.ledger.deposit(Deposit {
+            worker: self.worker,
+            stats: self.stats,
+            local: self.local.take(),
+        });
+    }
+}
+
+impl<'c, X: Local> HandleCore<'c, X> {
+    /// Registers a handle for `worker` in `ledger`'s open frame.
+    ///
+    /// # Panics
+    /// If `worker` already has a handle in that frame.
+    pub fn new(ledger: &'c Ledger<X>, worker: WorkerId, local: X) -> Self {
+        let frame = ledger.issue(worker);
         Self {
             worker,
             frame,
             next_seq: 0,
             stats: WorkerStats::default(),
+            local,
+            ledger,
         }
     }
 
@@ -314,6 +359,7 @@ impl HandleCore {
         match outcome {
             Inserted::Stored(_) => self.stats.stored += 1,
             Inserted::Discarded(_) => self.stats.discarded += 1,
+            Inserted::NotCached(_) => {}
         }
         self.stats.max_insert_steps = self.stats.max_insert_steps.max(steps);
         outcome

@@ -10,6 +10,7 @@
 //! octree's lock for the whole frame, so lookups and inserts pay nothing for it; a second worker
 //! asking for a handle waits until the first one is finished. TRA is meant to run on one thread.
 
+use super::frame::{sum_stats, Ledger, Local};
 use super::octree::{Cell, Octant};
 use super::{
     collect_valid, CacheConfig, CacheHandle, CacheStats, FrameReport, HandleCore, Inserted,
@@ -127,6 +128,16 @@ impl Octree {
         }
     }
 
+    /// Moves the records out, leaving an octree with no nodes that must only be dropped (what a
+    /// dropped LW handle does with its local octree).
+    fn take_all(&mut self) -> Self {
+        Self {
+            config: self.config,
+            nodes: std::mem::take(&mut self.nodes),
+            len: std::mem::take(&mut self.len),
+        }
+    }
+
     /// Validates and stores a record without a handle (for single-threaded use: oracles, merges,
     /// tests). The record keeps the id and check field it has.
     pub fn insert(&mut self, record: Record) -> Result<(), InsertError> {
@@ -136,11 +147,18 @@ impl Octree {
     }
 }
 
+impl Local for Octree {
+    fn take(&mut self) -> Self {
+        self.take_all()
+    }
+}
+
 /// TRA: the sequential cache (Listing 3). One worker at a time.
 #[derive(Debug)]
 pub struct Sequential {
     config: CacheConfig,
     tree: Mutex<Octree>,
+    ledger: Ledger<()>,
     stats: CacheStats,
 }
 
@@ -150,6 +168,7 @@ impl Sequential {
         Self {
             config,
             tree: Mutex::new(Octree::new(config)),
+            ledger: Ledger::new(),
             stats: CacheStats::default(),
         }
     }
@@ -161,14 +180,14 @@ impl Sequential {
 
 /// A TRA worker: holds the octree for the whole frame.
 #[derive(Debug)]
+#[must_use = "a handle does nothing unless it is used"]
 pub struct SeqHandle<'c> {
     tree: MutexGuard<'c, Octree>,
-    core: HandleCore,
+    core: HandleCore<'c, ()>,
 }
 
 impl IrradianceCache for Sequential {
     type Handle<'c> = SeqHandle<'c>;
-    type Residue = WorkerStats;
 
     fn scheme(&self) -> &'static str {
         "tra"
@@ -179,17 +198,23 @@ impl IrradianceCache for Sequential {
     }
 
     fn handle(&self, worker: WorkerId) -> SeqHandle<'_> {
+        // Registered before the lock is taken, so a duplicate id panics instead of waiting for
+        // the holder of the octree (its own thread, perhaps) forever.
+        let core = HandleCore::new(&self.ledger, worker, ());
         SeqHandle {
             // A worker that panicked with the handle poisons the lock; the octree is whole at
             // every unwind point, so the next worker carries on with it.
             tree: unpoison(self.tree.lock()),
-            core: HandleCore::new(worker, self.stats.frames),
+            core,
         }
     }
 
-    fn end_frame(&mut self, residues: Vec<WorkerStats>) -> FrameReport {
-        let mut report = FrameReport::default();
-        residues.iter().for_each(|s| report.workers += s);
+    fn end_frame(&mut self) -> FrameReport {
+        let deposits = self.ledger.close();
+        let report = FrameReport {
+            workers: sum_stats(&deposits),
+            ..FrameReport::default()
+        };
         self.stats.totals += &report.workers;
         self.stats.frames += 1;
         report
@@ -213,8 +238,6 @@ impl IrradianceCache for Sequential {
 }
 
 impl CacheHandle for SeqHandle<'_> {
-    type Residue = WorkerStats;
-
     fn worker(&self) -> WorkerId {
         self.core.worker
     }
@@ -243,9 +266,5 @@ impl CacheHandle for SeqHandle<'_> {
 
     fn stats(&self) -> &WorkerStats {
         &self.core.stats
-    }
-
-    fn finish(self) -> WorkerStats {
-        self.core.stats
     }
 }

@@ -3,7 +3,7 @@
 
 use super::plot::{Figure, Line, Panel};
 use super::{colour, heading, orbit_with_scheme, write_file, Machine};
-use crate::render::cli::Scheme;
+use crate::cache::Scheme;
 use crate::render::{scenes, FrameStats, RenderSettings};
 use std::fmt::Write as _;
 use std::path::Path;

@@ -3,7 +3,7 @@
 use super::animation::{self, AnimationConfig};
 use super::table1::{self, Table1Config};
 use super::Machine;
-use crate::render::cli::Scheme;
+use crate::cache::Scheme;
 use crate::render::RenderSettings;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use std::io::IsTerminal;

@@ -15,7 +15,7 @@ pub mod plot;
 pub mod table1;
 
 use crate::cache::IrradianceCache;
-use crate::render::cli::{CacheJob, Scheme};
+use crate::cache::{CacheJob, Scheme};
 use crate::render::{FrameStats, RenderSettings, Scene};
 
 /// The machine a run measured: what every table and plot prints at the top.
@@ -115,28 +115,17 @@ pub fn orbit_with_scheme(
         frames,
         each,
     };
-    scheme
-        .build(config, job)
-        .ok_or_else(|| "scheme `none` has no cache to reuse across frames".to_owned())
+    Ok(scheme.build(config, job))
 }
 
-/// The column heading of a scheme (as the paper writes them, plus ours).
+/// The column heading of a scheme (as the paper writes them, plus ours): [`Scheme::heading`].
 pub fn heading(scheme: Scheme) -> &'static str {
-    match scheme {
-        Scheme::Tra => "TRA",
-        Scheme::Lck => "LCK",
-        Scheme::LckRw => "LCK-RW",
-        Scheme::Lw => "LW",
-        Scheme::Wf => "WF",
-        Scheme::WfDiscard => "WF-D",
-        Scheme::None => "NONE",
-    }
+    scheme.heading()
 }
 
-/// The plot colour of a scheme.
+/// The plot colour of a scheme: [`Scheme::colour`], the scheme's own.
 pub fn colour(scheme: Scheme) -> plot::Colour {
-    let i = Scheme::ALL.iter().position(|s| *s == scheme).unwrap_or(0);
-    plot::PALETTE[i]
+    scheme.colour()
 }
 
 /// The median of `values` (the mean of the middle two for an even count); `NaN` when empty.

@@ -1,7 +1,7 @@
 //! The paper's Table 1, transcribed (8-core dual quad-core Xeon at 2.5 GHz, ICC 9.0, CentOS 4),
 //! so our tables can print it beside our figures.
 
-use crate::render::cli::Scheme;
+use crate::cache::Scheme;
 
 /// One column of the paper's Table 1.
 #[derive(Clone, Copy, Debug, PartialEq)]

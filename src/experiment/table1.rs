@@ -15,7 +15,8 @@
 
 use super::plot::{Bar, Figure, Line, Panel};
 use super::{colour, heading, median, paper, write_file, Machine};
-use crate::render::cli::{render_with_scheme, Scheme};
+use crate::cache::Scheme;
+use crate::render::render_with_scheme;
 use crate::render::{scenes, FrameStats, RenderSettings};
 use std::fmt::Write as _;
 use std::path::Path;

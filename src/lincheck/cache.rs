@@ -78,6 +78,7 @@ impl fmt::Debug for CacheRet {
         match self {
             Self::Inserted(Inserted::Stored(_)) => write!(f, "Stored"),
             Self::Inserted(Inserted::Discarded(_)) => write!(f, "Discarded"),
+            Self::Inserted(Inserted::NotCached(_)) => write!(f, "NotCached"),
             Self::Rejected(e) => write!(f, "Rejected({e})"),
             Self::Found { ids, torn } => {
                 write!(f, "{{")?;

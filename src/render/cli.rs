@@ -5,141 +5,36 @@
 //! exit (2 for bad input, 1 for a failure while writing).
 
 use super::film::worker_colour;
-use super::{
-    obj, render_frame, render_reference, scenes, Camera, FrameResult, RenderSettings, Scene,
-};
-use crate::cache::wf::Minimal;
-use crate::cache::{
-    CacheConfig, CasFailure, IrradianceCache, LocalWrite, Locked, MutexFlavour, RwLockFlavour,
-    Sequential, WaitFree,
-};
+use super::{obj, render_with_scheme, scenes, Camera, Pool, RenderSettings, Scene};
+use crate::cache::Scheme;
+use clap::builder::PossibleValue;
 use glam::Vec3;
 use std::fmt;
 use std::path::{Path, PathBuf};
 
-/// The cache schemes, as the CLI spells them.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
-pub enum Scheme {
-    /// Sequential octree (one thread holds it for the frame).
-    Tra,
-    /// Octree behind a `Mutex`.
-    Lck,
-    /// Octree behind an `RwLock`.
-    #[value(name = "lck-rw")]
-    LckRw,
-    /// Per-thread local caches merged at frame end.
-    Lw,
-    /// Wait-free octree, losers of a child race adopt the winner's child.
-    Wf,
-    /// Wait-free octree, losers of a child race discard their sample (the paper).
-    #[value(name = "wf-discard")]
-    WfDiscard,
-    /// No cache: the indirect term at every pixel (the reference).
-    None,
-}
-
-impl Scheme {
-    /// Every scheme that is a cache (all but `None`), in the order tables list them.
-    pub const CACHED: [Scheme; 6] = [
-        Scheme::Tra,
-        Scheme::Lck,
-        Scheme::LckRw,
-        Scheme::Lw,
-        Scheme::Wf,
-        Scheme::WfDiscard,
-    ];
-
-    /// The scheme's name.
-    pub fn name(self) -> &'static str {
-        match self {
-            Self::Tra => "tra",
-            Self::Lck => "lck",
-            Self::LckRw => "lck-rw",
-            Self::Lw => "lw",
-            Self::Wf => "wf",
-            Self::WfDiscard => "wf-discard",
-            Self::None => "none",
-        }
+/// `--scheme` parses from the cache layer's list: names, and descriptions for `--help`.
+impl clap::ValueEnum for Scheme {
+    fn value_variants<'a>() -> &'a [Self] {
+        &Scheme::ALL
     }
 
-    /// Every scheme, the reference last.
-    pub const ALL: [Scheme; 7] = [
-        Self::Tra,
-        Self::Lck,
-        Self::LckRw,
-        Self::Lw,
-        Self::Wf,
-        Self::WfDiscard,
-        Self::None,
-    ];
-}
-
-/// Work to run on a freshly built cache, whatever its scheme: the callers are generic over
-/// [`IrradianceCache`], and [`Scheme::build`] is the one place a scheme name becomes a cache type.
-pub trait CacheJob {
-    /// What the job returns.
-    type Output;
-    /// Runs the job on `cache`.
-    fn run<C: IrradianceCache>(self, cache: C) -> Self::Output;
-}
-
-impl Scheme {
-    /// Builds this scheme's cache over `config` and runs `job` on it; `None` for
-    /// [`Scheme::None`], which has no cache. WF uses the [`Minimal`] orderings.
-    pub fn build<J: CacheJob>(self, config: CacheConfig, job: J) -> Option<J::Output> {
-        Some(match self {
-            Self::Tra => job.run(Sequential::new(config)),
-            Self::Lck => job.run(Locked::<MutexFlavour>::new(config)),
-            Self::LckRw => job.run(Locked::<RwLockFlavour>::new(config)),
-            Self::Lw => job.run(LocalWrite::new(config)),
-            Self::Wf => job.run(WaitFree::<Minimal>::new(config, CasFailure::Adopt)),
-            Self::WfDiscard => job.run(WaitFree::<Minimal>::new(config, CasFailure::Discard)),
-            Self::None => return None,
-        })
+    fn to_possible_value(&self) -> Option<PossibleValue> {
+        Some(PossibleValue::new(self.name()).help(self.description()))
     }
 }
 
-/// Renders one frame with `scheme` and a fresh cache (or none), returning the frame and the
-/// records the cache holds afterwards.
-pub fn render_with_scheme(
-    scheme: Scheme,
-    scene: &Scene,
-    camera: &Camera,
-    settings: &RenderSettings,
-    config: CacheConfig,
-    threads: usize,
-) -> (FrameResult, Vec<crate::ic::Record>) {
-    struct Frame<'a> {
-        scene: &'a Scene,
-        camera: &'a Camera,
-        settings: &'a RenderSettings,
-        threads: usize,
+/// `--pool` parses from the renderer's pools.
+impl clap::ValueEnum for Pool {
+    fn value_variants<'a>() -> &'a [Self] {
+        &[Pool::Scoped, Pool::Rayon]
     }
-    impl CacheJob for Frame<'_> {
-        type Output = (FrameResult, Vec<crate::ic::Record>);
-        fn run<C: IrradianceCache>(self, mut cache: C) -> Self::Output {
-            let out = render_frame(
-                self.scene,
-                self.camera,
-                self.settings,
-                &mut cache,
-                self.threads,
-            );
-            (out, cache.snapshot())
-        }
+
+    fn to_possible_value(&self) -> Option<PossibleValue> {
+        Some(PossibleValue::new(self.name()).help(match self {
+            Pool::Scoped => "one scoped thread per worker, started for each frame",
+            Pool::Rayon => "a rayon thread pool, one cache handle per pool thread",
+        }))
     }
-    let job = Frame {
-        scene,
-        camera,
-        settings,
-        threads,
-    };
-    scheme.build(config, job).unwrap_or_else(|| {
-        (
-            render_reference(scene, camera, settings, threads),
-            Vec::new(),
-        )
-    })
 }
 
 fn parse_vec3(s: &str) -> Result<Vec3, String> {
@@ -169,6 +64,9 @@ pub struct RenderArgs {
     /// Worker threads.
     #[arg(long, default_value_t = 1)]
     pub threads: usize,
+    /// Where the workers run.
+    #[arg(long, value_enum, default_value = "threads")]
+    pub pool: Pool,
     /// Image width in pixels.
     #[arg(long, default_value_t = 512)]
     pub width: u32,
@@ -318,7 +216,8 @@ pub fn settings_from(args: &RenderArgs) -> Result<RenderSettings, RenderError> {
         .light_samples(args.light_samples)
         .pixel_samples(args.spp)
         .seed(args.seed)
-        .quiet(args.quiet))
+        .quiet(args.quiet)
+        .pool(args.pool))
 }
 
 /// Runs `wfic render`.
@@ -398,27 +297,4 @@ pub fn run_render(args: RenderArgs) -> Result<(), RenderError> {
         overlay.display(),
     );
     Ok(())
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    struct Name;
-
-    impl CacheJob for Name {
-        type Output = &'static str;
-        fn run<C: IrradianceCache>(self, cache: C) -> &'static str {
-            cache.scheme()
-        }
-    }
-
-    #[test]
-    fn every_scheme_builds_the_cache_it_names_and_none_builds_nothing() {
-        let config = CacheConfig::new(Vec3::ZERO, Vec3::ONE, 0.25).unwrap();
-        for scheme in Scheme::CACHED {
-            assert_eq!(scheme.build(config, Name), Some(scheme.name()));
-        }
-        assert_eq!(Scheme::None.build(config, Name), None);
-    }
 }

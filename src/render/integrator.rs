@@ -34,10 +34,15 @@
 //!   central differences in front of a wall it overestimated the gradient 1.4-2x, the derived
 //!   form is within 5% (`translational_gradient_matches_finite_differences_next_to_a_wall`).
 
-use super::sampler::Rng;
+use super::camera::{Camera, View};
+use super::sampler::{Rng, Stream};
 use super::scene::Scene;
+use super::RenderSettings;
+use crate::cache::CacheHandle;
+use crate::ic::{self, Record};
 use glam::Vec3;
 use std::f32::consts::{PI, TAU};
+use std::time::{Duration, Instant};
 
 /// The strata of a hemisphere estimate: `theta` rings times `phi` sectors.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -272,10 +277,217 @@ pub fn sample_irradiance(
     }
 }
 
+// ---------------------------------------------------------------------------------------------
+// Per-sample radiance through the cache (pbrt-v4's `Li`) and per-pixel sampling
+// ---------------------------------------------------------------------------------------------
+
+/// What one worker counts for itself while it shades.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct SampleCounters {
+    /// Rays traced, by kind.
+    pub rays: RayCounts,
+    /// Irradiance estimates computed.
+    pub ic_samples: u64,
+    /// Time spent in hemisphere sampling.
+    pub hemisphere: Duration,
+}
+
+impl std::ops::AddAssign for SampleCounters {
+    fn add_assign(&mut self, o: Self) {
+        self.rays += o.rays;
+        self.ic_samples += o.ic_samples;
+        self.hemisphere += o.hemisphere;
+    }
+}
+
+/// The integrator of one frame: the scene seen through one view with one set of settings, and
+/// the cache's accuracy (for the gradient limit). Read-only, shared by the workers.
+pub struct PixelIntegrator<'a> {
+    scene: &'a Scene,
+    view: View,
+    settings: &'a RenderSettings,
+    strata: Strata,
+    eps: f32,
+    diagonal: f32,
+    accuracy: f32,
+}
+
+impl<'a> PixelIntegrator<'a> {
+    /// The integrator for `scene` seen by `camera` with `settings`, feeding a cache of accuracy
+    /// `accuracy`.
+    pub fn new(
+        scene: &'a Scene,
+        camera: &Camera,
+        settings: &'a RenderSettings,
+        accuracy: f32,
+    ) -> Self {
+        Self {
+            scene,
+            view: camera.view(settings.width, settings.height),
+            settings,
+            strata: settings.strata(),
+            eps: 1e-4 * scene.diagonal(),
+            diagonal: scene.diagonal(),
+            accuracy,
+        }
+    }
+
+    /// The radiance of pixel `(px, py)`: the mean of its `pixel_samples` primary rays, placed
+    /// by stratified jitter on the most nearly square `cols x rows` grid with `cols * rows`
+    /// equal to the count (a single ray goes through the centre).
+    pub fn pixel<H: CacheHandle>(
+        &self,
+        px: u32,
+        py: u32,
+        handle: &mut H,
+        counters: &mut SampleCounters,
+    ) -> Vec3 {
+        let n = self.settings.pixel_samples.max(1);
+        if n == 1 {
+            return self.li(px, py, 0, (0.5, 0.5), handle, counters);
+        }
+        let (cols, rows) = strata_grid(n);
+        let mut pos = Rng::for_pixel(self.settings.seed, px, py, Stream::Position);
+        let mut sum = Vec3::ZERO;
+        for s in 0..n {
+            let (i, j) = (s % cols, s / cols);
+            let u = (i as f32 + pos.next_f32()) / cols as f32;
+            let v = (j as f32 + pos.next_f32()) / rows as f32;
+            sum += self.li(px, py, s, (u, v), handle, counters);
+        }
+        sum / n as f32
+    }
+
+    /// `Li`: the radiance along one primary ray through `(px + offset.0, py + offset.1)`, sample
+    /// `sample` of its pixel: emission, direct light, and the indirect irradiance from the cache
+    /// (a lookup; on a miss a hemisphere estimate, its gradients limited, inserted as a record).
+    pub fn li<H: CacheHandle>(
+        &self,
+        px: u32,
+        py: u32,
+        sample: u32,
+        offset: (f32, f32),
+        handle: &mut H,
+        counters: &mut SampleCounters,
+    ) -> Vec3 {
+        let scene = self.scene;
+        let dir = self
+            .view
+            .direction(px as f32 + offset.0, py as f32 + offset.1);
+        counters.rays.primary += 1;
+        let Some(hit) = scene.intersect(self.view.eye(), dir, f32::INFINITY) else {
+            return Vec3::ZERO;
+        };
+        let x = self.view.eye() + dir * hit.t;
+        let n = facing(hit.normal, dir);
+        let mut radiance = if hit.normal.dot(dir) < 0.0 {
+            hit.material.emission
+        } else {
+            Vec3::ZERO
+        };
+        let mut rng = Rng::for_sample(self.settings.seed, px, py, sample, Stream::Direct);
+        let direct = direct_irradiance(
+            scene,
+            x,
+            n,
+            self.settings.light_samples,
+            self.eps,
+            &mut rng,
+            &mut counters.rays,
+        );
+        let indirect = match handle.lookup(x, n) {
+            Some(found) => found.irradiance,
+            None => {
+                let mut rng =
+                    Rng::for_sample(self.settings.seed, px, py, sample, Stream::Hemisphere);
+                let start = Instant::now();
+                let s = sample_irradiance(
+                    scene,
+                    x,
+                    n,
+                    self.strata,
+                    self.eps,
+                    &mut rng,
+                    &mut counters.rays,
+                );
+                counters.hemisphere += start.elapsed();
+                counters.ic_samples += 1;
+                let footprint = self.view.footprint(hit.t, dir);
+                let (r_min, r_max) = self.settings.radius_bounds(footprint, self.diagonal);
+                let (radius, grad_t) = limit_gradient(&s, r_min, r_max, self.accuracy);
+                let record =
+                    Record::new(x, n, s.irradiance, radius).with_gradients(grad_t, s.grad_r);
+                // Stored, discarded (WF `Discard`), not cached (the reference) or refused, the
+                // estimate is used for this pixel; a refusal is counted by the handle (`rejected`).
+                let _ = handle.insert(record);
+                s.irradiance
+            }
+        };
+        radiance += hit.material.albedo * (direct + indirect) * (1.0 / PI);
+        radiance
+    }
+}
+
+/// The most nearly square grid `(cols, rows)` with `cols * rows == n` and `cols >= rows`
+/// (`n` prime gives `(n, 1)`).
+fn strata_grid(n: u32) -> (u32, u32) {
+    let mut rows = (n as f64).sqrt() as u32;
+    while rows > 1 && n % rows != 0 {
+        rows -= 1;
+    }
+    let rows = rows.max(1);
+    (n / rows, rows)
+}
+
+/// The record's radius and translational gradient, limited as Křivánek et al. (2006, "Making
+/// radiance and irradiance caching practical") advise, so a record never extrapolates wildly:
+/// * the radius is at most `E_c / |grad_t[c]|` for every channel (where irradiance changes fast,
+///   records are closer together), then clamped to `[r_min, r_max]` ([`ic::clamp_radius`]);
+/// * if a channel's gradient would still change it by more than its own value across the
+///   record's reach `a R`, that gradient is scaled down to exactly that.
+pub fn limit_gradient(
+    s: &IrradianceSample,
+    r_min: f32,
+    r_max: f32,
+    accuracy: f32,
+) -> (f32, [Vec3; 3]) {
+    let mut hmd = s.harmonic_mean;
+    for c in 0..3 {
+        let g = s.grad_t[c].length();
+        if g > 0.0 {
+            hmd = hmd.min(s.irradiance[c] / g);
+        }
+    }
+    let radius = ic::clamp_radius(hmd, r_min, r_max);
+    let reach = accuracy * radius;
+    let mut grad_t = s.grad_t;
+    for (c, g) in grad_t.iter_mut().enumerate() {
+        let change = g.length() * reach;
+        if change > s.irradiance[c] {
+            *g *= s.irradiance[c] / change;
+        }
+    }
+    (radius, grad_t)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::render::scenes;
+
+    #[test]
+    fn strata_grids_are_as_square_as_the_count_allows() {
+        assert_eq!(strata_grid(1), (1, 1));
+        assert_eq!(strata_grid(4), (2, 2));
+        assert_eq!(strata_grid(6), (3, 2));
+        assert_eq!(strata_grid(7), (7, 1));
+        assert_eq!(strata_grid(16), (4, 4));
+        for n in 1..200 {
+            let (c, r) = strata_grid(n);
+            assert_eq!(c * r, n);
+            assert!(c >= r);
+        }
+    }
 
     /// Mean of `n` independent estimates at `x`, and the mean gradients.
     fn estimate(scene: &Scene, x: Vec3, n: Vec3, seeds: u64) -> IrradianceSample {

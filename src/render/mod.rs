@@ -8,9 +8,12 @@
 //! * [`obj`] — Wavefront OBJ/MTL loading for user scenes;
 //! * [`camera`] — pinhole camera and the orbit of the paper's animations;
 //! * [`sampler`] — per-pixel deterministic random numbers;
-//! * [`integrator`] — direct light and one indirect diffuse bounce through the cache;
+//! * [`integrator`] — per-sample radiance (`Li`): direct light and one indirect diffuse bounce
+//!   through the cache (lookup, else a hemisphere estimate with limited gradients, inserted);
 //! * [`film`] — the HDR image, PNG/PFM output, the record overlay, relative RMSE;
-//! * [`parallel`] — image tiles handed out to worker threads, one cache handle per worker;
+//! * [`parallel`] — the render loop: image tiles handed out to the workers of one cache frame,
+//!   on scoped threads or a rayon pool;
+//! * [`stats`] — what a frame counts, and its JSON form;
 //! * [`cli`] — the `wfic render` subcommand.
 //!
 //! ```no_run
@@ -41,11 +44,15 @@ pub mod parallel;
 pub mod sampler;
 pub mod scene;
 pub mod scenes;
+pub mod stats;
 
 pub use camera::{Camera, Orbit};
 pub use film::Image;
-pub use parallel::{render_frame, render_orbit, render_reference, FrameResult, FrameStats};
+pub use parallel::{
+    render_frame, render_orbit, render_reference, render_with_scheme, FrameResult, Pool,
+};
 pub use scene::{Material, Scene, SceneBuilder, SceneError};
+pub use stats::FrameStats;
 
 use crate::cache::{CacheConfig, ConfigError};
 use integrator::Strata;
@@ -90,6 +97,8 @@ pub struct RenderSettings {
     pub seed: u64,
     /// Hide the progress bar.
     pub quiet: bool,
+    /// Where the workers run.
+    pub pool: Pool,
 }
 
 impl RenderSettings {
@@ -109,6 +118,7 @@ impl RenderSettings {
             tile_size: 16,
             seed: 0x5eed,
             quiet: true,
+            pool: Pool::Scoped,
         }
     }
 
@@ -145,6 +155,12 @@ impl RenderSettings {
     /// Shows (`false`) or hides (`true`) the progress bar.
     pub fn quiet(mut self, quiet: bool) -> Self {
         self.quiet = quiet;
+        self
+    }
+
+    /// Runs the workers on `pool`.
+    pub fn pool(mut self, pool: Pool) -> Self {
+        self.pool = pool;
         self
     }
 

@@ -1,115 +1,38 @@
-//! Parallel frames: image tiles handed out dynamically to worker threads, one cache handle per
-//! worker, per-worker counters summed after the join (tray_rust's block queue, pbrt-v4's tile
-//! integrator).
+//! The render loop: image tiles handed out dynamically to the workers of one cache frame
+//! (tray_rust's block queue, pbrt-v4's tile integrator), on scoped threads or on a rayon pool.
+//! What a sample computes is the integrator's ([`PixelIntegrator`]); what a frame counts is
+//! [`FrameStats`].
 
-use super::camera::View;
 use super::film::Image;
-use super::integrator::{self, facing, RayCounts, Strata};
-use super::sampler::{Rng, Stream};
+use super::integrator::{PixelIntegrator, SampleCounters};
 use super::scene::Scene;
+use super::stats::FrameStats;
 use super::{Camera, RenderSettings};
-use crate::cache::{CacheHandle, IrradianceCache, Sequential, WorkerStats};
-use crate::ic::{self, Record, WorkerId};
-use crate::sync::{thread, AtomicUsize, Ordering};
+use crate::cache::{CacheConfig, CacheHandle, CacheJob, IrradianceCache, NoCache, Scheme};
+use crate::sync::{AtomicUsize, Ordering};
 use glam::Vec3;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
-use std::f32::consts::PI;
 use std::io::IsTerminal;
-use std::time::{Duration, Instant};
+use std::time::Instant;
 
-/// A frame's statistics (the paper's Table 1 columns and more).
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct FrameStats {
-    /// The scheme (`tra`, `lck`, `lck-rw`, `lw`, `wf`, `wf-discard`, or `none`).
-    pub scheme: String,
-    /// Worker threads.
-    pub threads: usize,
-    /// Image width.
-    pub width: u32,
-    /// Image height.
-    pub height: u32,
-    /// Wall-clock time of the frame, LW's merge included.
-    pub seconds: f64,
-    /// Irradiance estimates computed (hemisphere samplings): the paper's "IC samples". With the
-    /// `none` scheme, one per shaded pixel.
-    pub ic_samples: u64,
-    /// Cache lookups.
-    pub lookups: u64,
-    /// Lookups answered by the cache.
-    pub hits: u64,
-    /// Hits that used at least one record another worker computed.
-    pub shared_hits: u64,
-    /// `shared_hits / hits` (0 without hits): the share of successful lookups served by at least
-    /// one record another thread computed.
-    pub sharing: f64,
-    /// LCK: time spent waiting for the lock, summed over workers.
-    pub lock_wait_seconds: f64,
-    /// LW: time spent merging the local caches at the end of the frame.
-    pub merge_seconds: f64,
-    /// WF `Discard`: records dropped after a lost compare-and-swap.
-    pub discarded: u64,
-    /// Records stored.
-    pub stored: u64,
-    /// Records refused by the cache (bad input; expected 0).
-    pub rejected: u64,
-    /// Rays traced, by kind.
-    pub rays: RayCounts,
-    /// Time spent in hemisphere sampling, summed over workers (for rays per second per core).
-    pub hemisphere_seconds: f64,
-    /// Records in the cache after the frame.
-    pub cache_records: usize,
+/// Where a frame's workers run.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Pool {
+    /// One scoped thread per worker, started for the frame ([`crate::cache::Frame::run`]).
+    #[default]
+    Scoped,
+    /// A rayon pool of as many threads, one cache handle per pool thread
+    /// ([`crate::cache::Frame::run_on_pool`]).
+    Rayon,
 }
 
-impl FrameStats {
-    /// Hemisphere rays per second of one core's sampling time.
-    pub fn hemisphere_rays_per_second(&self) -> f64 {
-        if self.hemisphere_seconds > 0.0 {
-            self.rays.hemisphere as f64 / self.hemisphere_seconds
-        } else {
-            0.0
+impl Pool {
+    /// The name, as `--pool` spells it.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Scoped => "threads",
+            Self::Rayon => "rayon",
         }
-    }
-
-    /// The statistics as a JSON object (keys as in the issue, plus the extra counters).
-    pub fn to_json(&self, scene: &str) -> String {
-        let esc = |s: &str| s.replace('\\', "\\\\").replace('"', "\\\"");
-        format!(
-            concat!(
-                "{{\n",
-                "  \"scene\": \"{}\",\n  \"scheme\": \"{}\",\n  \"threads\": {},\n",
-                "  \"width\": {},\n  \"height\": {},\n  \"seconds\": {:.6},\n",
-                "  \"ic_samples\": {},\n  \"lookups\": {},\n  \"hits\": {},\n",
-                "  \"shared_hits\": {},\n  \"sharing\": {:.6},\n",
-                "  \"lock_wait_seconds\": {:.6},\n  \"merge_seconds\": {:.6},\n",
-                "  \"discarded\": {},\n  \"stored\": {},\n  \"rejected\": {},\n",
-                "  \"cache_records\": {},\n",
-                "  \"primary_rays\": {},\n  \"shadow_rays\": {},\n  \"hemisphere_rays\": {},\n",
-                "  \"hemisphere_seconds\": {:.6},\n  \"hemisphere_rays_per_second\": {:.1}\n",
-                "}}\n"
-            ),
-            esc(scene),
-            esc(&self.scheme),
-            self.threads,
-            self.width,
-            self.height,
-            self.seconds,
-            self.ic_samples,
-            self.lookups,
-            self.hits,
-            self.shared_hits,
-            self.sharing,
-            self.lock_wait_seconds,
-            self.merge_seconds,
-            self.discarded,
-            self.stored,
-            self.rejected,
-            self.cache_records,
-            self.rays.primary,
-            self.rays.shadow,
-            self.rays.hemisphere,
-            self.hemisphere_seconds,
-            self.hemisphere_rays_per_second(),
-        )
     }
 }
 
@@ -122,198 +45,39 @@ pub struct FrameResult {
     pub stats: FrameStats,
 }
 
-/// What one worker counts for itself.
-#[derive(Clone, Copy, Debug, Default)]
-struct Counters {
-    rays: RayCounts,
-    ic_samples: u64,
-    hemisphere: Duration,
+/// The frame's tiles: square blocks of `tile_size` pixels, row by row.
+struct Tiles {
+    size: u32,
+    width: u32,
+    height: u32,
+    across: u32,
+    count: usize,
 }
 
-/// Per-frame constants shared by the workers (read-only).
-struct Frame<'a> {
-    scene: &'a Scene,
-    view: View,
-    settings: &'a RenderSettings,
-    strata: Strata,
-    eps: f32,
-    diagonal: f32,
-    /// The cache's accuracy `a` (1 without a cache).
-    accuracy: f32,
-    tiles_x: u32,
-    tiles: usize,
-}
-
-impl Frame<'_> {
-    fn tile_rect(&self, tile: usize) -> (u32, u32, u32, u32) {
-        let ts = self.settings.tile_size;
-        let (tx, ty) = (tile as u32 % self.tiles_x, tile as u32 / self.tiles_x);
-        let (x0, y0) = (tx * ts, ty * ts);
-        let x1 = (x0 + ts).min(self.settings.width);
-        let y1 = (y0 + ts).min(self.settings.height);
-        (x0, y0, x1, y1)
-    }
-
-    /// The radiance of pixel `(px, py)`: the mean of its `pixel_samples` primary rays, placed
-    /// by stratified jitter on the most nearly square `cols x rows` grid with `cols * rows`
-    /// equal to the count (a single ray goes through the centre).
-    fn shade<H: CacheHandle>(
-        &self,
-        px: u32,
-        py: u32,
-        mut handle: Option<&mut H>,
-        counters: &mut Counters,
-    ) -> Vec3 {
-        let n = self.settings.pixel_samples.max(1);
-        if n == 1 {
-            return self.shade_sample(px, py, 0, (0.5, 0.5), handle, counters);
-        }
-        let (cols, rows) = strata_grid(n);
-        let mut pos = Rng::for_pixel(self.settings.seed, px, py, Stream::Position);
-        let mut sum = Vec3::ZERO;
-        for s in 0..n {
-            let (i, j) = (s % cols, s / cols);
-            let u = (i as f32 + pos.next_f32()) / cols as f32;
-            let v = (j as f32 + pos.next_f32()) / rows as f32;
-            sum += self.shade_sample(px, py, s, (u, v), handle.as_deref_mut(), counters);
-        }
-        sum / n as f32
-    }
-
-    /// The radiance along one primary ray through `(px + offset.0, py + offset.1)`, sample
-    /// `sample` of its pixel.
-    fn shade_sample<H: CacheHandle>(
-        &self,
-        px: u32,
-        py: u32,
-        sample: u32,
-        offset: (f32, f32),
-        handle: Option<&mut H>,
-        counters: &mut Counters,
-    ) -> Vec3 {
-        let scene = self.scene;
-        let dir = self
-            .view
-            .direction(px as f32 + offset.0, py as f32 + offset.1);
-        counters.rays.primary += 1;
-        let Some(hit) = scene.intersect(self.view.eye(), dir, f32::INFINITY) else {
-            return Vec3::ZERO;
-        };
-        let x = self.view.eye() + dir * hit.t;
-        let n = facing(hit.normal, dir);
-        let mut radiance = if hit.normal.dot(dir) < 0.0 {
-            hit.material.emission
-        } else {
-            Vec3::ZERO
-        };
-        let mut rng = Rng::for_sample(self.settings.seed, px, py, sample, Stream::Direct);
-        let direct = integrator::direct_irradiance(
-            scene,
-            x,
-            n,
-            self.settings.light_samples,
-            self.eps,
-            &mut rng,
-            &mut counters.rays,
-        );
-        let cached = match handle {
-            Some(h) => match h.lookup(x, n) {
-                Some(found) => Ok(found.irradiance),
-                None => Err(Some(h)),
-            },
-            None => Err(None),
-        };
-        let indirect = match cached {
-            Ok(e) => e,
-            Err(handle) => {
-                let mut rng =
-                    Rng::for_sample(self.settings.seed, px, py, sample, Stream::Hemisphere);
-                let start = Instant::now();
-                let s = integrator::sample_irradiance(
-                    scene,
-                    x,
-                    n,
-                    self.strata,
-                    self.eps,
-                    &mut rng,
-                    &mut counters.rays,
-                );
-                counters.hemisphere += start.elapsed();
-                counters.ic_samples += 1;
-                if let Some(h) = handle {
-                    let footprint = self.view.footprint(hit.t, dir);
-                    let (r_min, r_max) = self.settings.radius_bounds(footprint, self.diagonal);
-                    let (radius, grad_t) = limit_gradient(&s, r_min, r_max, self.accuracy);
-                    let record =
-                        Record::new(x, n, s.irradiance, radius).with_gradients(grad_t, s.grad_r);
-                    // Stored or discarded (WF `Discard`) or refused, the estimate is used for
-                    // this pixel; a refusal is counted by the handle (`rejected`).
-                    let _ = h.insert(record);
-                }
-                s.irradiance
-            }
-        };
-        radiance += hit.material.albedo * (direct + indirect) * (1.0 / PI);
-        radiance
-    }
-
-    fn render_tile<H: CacheHandle>(
-        &self,
-        tile: usize,
-        mut handle: Option<&mut H>,
-        counters: &mut Counters,
-    ) -> Vec<Vec3> {
-        let (x0, y0, x1, y1) = self.tile_rect(tile);
-        let mut out = Vec::with_capacity(((x1 - x0) * (y1 - y0)) as usize);
-        for y in y0..y1 {
-            for x in x0..x1 {
-                out.push(self.shade(x, y, handle.as_deref_mut(), counters));
-            }
-        }
-        out
-    }
-}
-
-/// The most nearly square grid `(cols, rows)` with `cols * rows == n` and `cols >= rows`
-/// (`n` prime gives `(n, 1)`).
-fn strata_grid(n: u32) -> (u32, u32) {
-    let mut rows = (n as f64).sqrt() as u32;
-    while rows > 1 && n % rows != 0 {
-        rows -= 1;
-    }
-    let rows = rows.max(1);
-    (n / rows, rows)
-}
-
-/// The record's radius and translational gradient, limited as Křivánek et al. (2006, "Making
-/// radiance and irradiance caching practical") advise, so a record never extrapolates wildly:
-/// * the radius is at most `E_c / |grad_t[c]|` for every channel (where irradiance changes fast,
-///   records are closer together), then clamped to `[r_min, r_max]` ([`ic::clamp_radius`]);
-/// * if a channel's gradient would still change it by more than its own value across the
-///   record's reach `a R`, that gradient is scaled down to exactly that.
-pub fn limit_gradient(
-    s: &integrator::IrradianceSample,
-    r_min: f32,
-    r_max: f32,
-    accuracy: f32,
-) -> (f32, [Vec3; 3]) {
-    let mut hmd = s.harmonic_mean;
-    for c in 0..3 {
-        let g = s.grad_t[c].length();
-        if g > 0.0 {
-            hmd = hmd.min(s.irradiance[c] / g);
+impl Tiles {
+    fn new(settings: &RenderSettings) -> Self {
+        let size = settings.tile_size.max(1);
+        let across = settings.width.div_ceil(size);
+        Self {
+            size,
+            width: settings.width,
+            height: settings.height,
+            across,
+            count: (across * settings.height.div_ceil(size)) as usize,
         }
     }
-    let radius = ic::clamp_radius(hmd, r_min, r_max);
-    let reach = accuracy * radius;
-    let mut grad_t = s.grad_t;
-    for (c, g) in grad_t.iter_mut().enumerate() {
-        let change = g.length() * reach;
-        if change > s.irradiance[c] {
-            *g *= s.irradiance[c] / change;
-        }
+
+    /// The pixel rectangle `(x0, y0, x1, y1)` of tile `tile`.
+    fn rect(&self, tile: usize) -> (u32, u32, u32, u32) {
+        let (tx, ty) = (tile as u32 % self.across, tile as u32 / self.across);
+        let (x0, y0) = (tx * self.size, ty * self.size);
+        (
+            x0,
+            y0,
+            (x0 + self.size).min(self.width),
+            (y0 + self.size).min(self.height),
+        )
     }
-    (radius, grad_t)
 }
 
 fn progress_bar(tiles: usize, quiet: bool, label: &str) -> ProgressBar {
@@ -330,116 +94,53 @@ fn progress_bar(tiles: usize, quiet: bool, label: &str) -> ProgressBar {
     bar
 }
 
-/// What a worker hands back when it joins.
-struct WorkerOutput<R> {
+/// What a worker hands back: its tiles' pixels and its counters.
+struct WorkerOutput {
     tiles: Vec<(usize, Vec<Vec3>)>,
-    counters: Counters,
-    residue: Option<R>,
+    counters: SampleCounters,
 }
 
-/// Renders the tiles with `threads` workers; each worker gets `cache.handle(WorkerId::new(i))`
-/// (if a cache is given) and finishes it before it joins.
-fn run_workers<C: IrradianceCache>(
-    scene: &Scene,
-    camera: &Camera,
-    settings: &RenderSettings,
-    cache: Option<&C>,
-    threads: usize,
-    label: &str,
-) -> (Image, Counters, Vec<C::Residue>) {
-    let (w, h) = (settings.width, settings.height);
-    let ts = settings.tile_size.max(1);
-    let tiles_x = w.div_ceil(ts);
-    let frame = Frame {
-        scene,
-        view: camera.view(w, h),
-        settings,
-        strata: settings.strata(),
-        eps: 1e-4 * scene.diagonal(),
-        diagonal: scene.diagonal(),
-        accuracy: cache.map_or(1.0, |c| c.config().accuracy()),
-        tiles_x,
-        tiles: (tiles_x * h.div_ceil(ts)) as usize,
+/// Takes tiles from `next_tile` until none is left, shading each pixel through `handle`.
+fn tile_loop<H: CacheHandle>(
+    integrator: &PixelIntegrator<'_>,
+    tiles: &Tiles,
+    next_tile: &AtomicUsize,
+    bar: &ProgressBar,
+    handle: &mut H,
+) -> WorkerOutput {
+    let mut out = WorkerOutput {
+        tiles: Vec::new(),
+        counters: SampleCounters::default(),
     };
-    let bar = progress_bar(frame.tiles, settings.quiet, label);
-    let next_tile = AtomicUsize::new(0);
-    let outputs: Vec<WorkerOutput<C::Residue>> = thread::scope(|s| {
-        let workers: Vec<_> = (0..threads.max(1))
-            .map(|i| {
-                let (frame, next_tile, bar) = (&frame, &next_tile, &bar);
-                s.spawn(move || {
-                    let mut handle = cache.map(|c| c.handle(WorkerId::new(i as u32)));
-                    let mut counters = Counters::default();
-                    let mut tiles = Vec::new();
-                    loop {
-                        // Relaxed: the counter only has to hand each tile to exactly one worker,
-                        // which the atomicity of `fetch_add` guarantees on its own; no other
-                        // memory is published through it (the tiles' pixels come back through
-                        // the join).
-                        let tile = next_tile.fetch_add(1, Ordering::Relaxed);
-                        if tile >= frame.tiles {
-                            break;
-                        }
-                        let pixels = frame.render_tile(tile, handle.as_mut(), &mut counters);
-                        tiles.push((tile, pixels));
-                        bar.inc(1);
-                    }
-                    WorkerOutput {
-                        tiles,
-                        counters,
-                        residue: handle.map(CacheHandle::finish),
-                    }
-                })
-            })
-            .collect();
-        workers
-            .into_iter()
-            .map(|w| match w.join() {
-                Ok(out) => out,
-                Err(panic) => std::panic::resume_unwind(panic),
-            })
-            .collect()
-    });
-    bar.finish_and_clear();
-
-    let mut image = Image::new(w, h);
-    let mut counters = Counters::default();
-    let mut residues = Vec::with_capacity(outputs.len());
-    for out in outputs {
-        for (tile, pixels) in out.tiles {
-            let (x0, y0, x1, _) = frame.tile_rect(tile);
-            let tw = x1 - x0;
-            for (i, p) in pixels.into_iter().enumerate() {
-                image.set(x0 + i as u32 % tw, y0 + i as u32 / tw, p);
+    loop {
+        // Relaxed: the counter only has to hand each tile to exactly one worker, which the
+        // atomicity of `fetch_add` guarantees on its own; no other memory is published through
+        // it (the tiles' pixels come back through the join).
+        let tile = next_tile.fetch_add(1, Ordering::Relaxed);
+        if tile >= tiles.count {
+            break;
+        }
+        let (x0, y0, x1, y1) = tiles.rect(tile);
+        let mut pixels = Vec::with_capacity(((x1 - x0) * (y1 - y0)) as usize);
+        for y in y0..y1 {
+            for x in x0..x1 {
+                pixels.push(integrator.pixel(x, y, handle, &mut out.counters));
             }
         }
-        counters.rays += out.counters.rays;
-        counters.ic_samples += out.counters.ic_samples;
-        counters.hemisphere += out.counters.hemisphere;
-        residues.extend(out.residue);
+        out.tiles.push((tile, pixels));
+        bar.inc(1);
     }
-    (image, counters, residues)
-}
-
-fn base_stats(settings: &RenderSettings, threads: usize, scheme: &str, c: &Counters) -> FrameStats {
-    FrameStats {
-        scheme: scheme.to_owned(),
-        threads: threads.max(1),
-        width: settings.width,
-        height: settings.height,
-        ic_samples: c.ic_samples,
-        rays: c.rays,
-        hemisphere_seconds: c.hemisphere.as_secs_f64(),
-        ..FrameStats::default()
-    }
+    out
 }
 
 /// Renders one frame of `scene` seen by `camera` with `threads` workers (0 counts as 1) sharing
-/// `cache`, then closes the frame ([`IrradianceCache::end_frame`]: LW merges there, timed).
+/// `cache`, on the pool `settings.pool` names, then closes the cache's frame (LW merges there,
+/// timed).
 ///
 /// The cache keeps its records, so calling this again renders the next frame of an animation
 /// with them (the paper's §4.2). With [`crate::cache::Sequential`] (TRA) a worker holds the
-/// octree for the whole frame, so extra workers only wait: use one thread.
+/// octree for the whole frame, so extra workers only wait: use one thread. With
+/// [`NoCache`] the frame is the reference: the indirect term is estimated at every primary hit.
 pub fn render_frame<C: IrradianceCache>(
     scene: &Scene,
     camera: &Camera,
@@ -448,52 +149,106 @@ pub fn render_frame<C: IrradianceCache>(
     threads: usize,
 ) -> FrameResult {
     let start = Instant::now();
+    let threads = threads.max(1);
     let scheme = cache.scheme();
-    let label = format!("{} {scheme}", scene.name());
-    let (image, counters, residues) =
-        run_workers(scene, camera, settings, Some(&*cache), threads, &label);
-    let report = cache.end_frame(residues);
-    let seconds = start.elapsed().as_secs_f64();
-    let cache_records = cache.stats().records;
-    let w: &WorkerStats = &report.workers;
-    let stats = FrameStats {
-        seconds,
-        lookups: w.lookups,
-        hits: w.hits,
-        shared_hits: w.shared_hits,
-        sharing: if w.hits > 0 {
-            w.shared_hits as f64 / w.hits as f64
-        } else {
-            0.0
-        },
-        lock_wait_seconds: w.lock_wait.as_secs_f64(),
-        merge_seconds: report.merge.as_secs_f64(),
-        discarded: w.discarded,
-        stored: w.stored,
-        rejected: w.rejected,
-        cache_records,
-        ..base_stats(settings, threads, scheme, &counters)
+    let integrator = PixelIntegrator::new(scene, camera, settings, cache.config().accuracy());
+    let tiles = Tiles::new(settings);
+    let bar = progress_bar(
+        tiles.count,
+        settings.quiet,
+        &format!("{} {scheme}", scene.name()),
+    );
+    let next_tile = AtomicUsize::new(0);
+    let frame = cache.frame();
+    let work = |handle: &mut _, _| tile_loop(&integrator, &tiles, &next_tile, &bar, handle);
+    let outputs = match settings.pool {
+        Pool::Scoped => frame.run(threads, work),
+        Pool::Rayon => {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .thread_name(|i| format!("wfic-render-{i}"))
+                .build()
+                .expect("a rayon pool of the frame's threads");
+            frame.run_on_pool(&pool, work)
+        }
     };
+    let report = frame.close();
+    bar.finish_and_clear();
+
+    let mut image = Image::new(settings.width, settings.height);
+    let mut counters = SampleCounters::default();
+    for out in outputs {
+        for (tile, pixels) in out.tiles {
+            let (x0, y0, x1, _) = tiles.rect(tile);
+            let tw = x1 - x0;
+            for (i, p) in pixels.into_iter().enumerate() {
+                image.set(x0 + i as u32 % tw, y0 + i as u32 / tw, p);
+            }
+        }
+        counters += out.counters;
+    }
+    let seconds = start.elapsed().as_secs_f64();
+    let stats = FrameStats::new(
+        scheme,
+        threads,
+        settings,
+        seconds,
+        &counters,
+        &report,
+        cache.stats().records,
+    );
     FrameResult { image, stats }
 }
 
-/// Renders the reference (scheme `none`): the indirect irradiance is estimated at every pixel
-/// with the same sampling as a cache record, and nothing is cached.
+/// Renders one frame with `scheme` and a fresh cache (the reference for `none`), returning the
+/// frame and the records the cache holds afterwards.
+pub fn render_with_scheme(
+    scheme: Scheme,
+    scene: &Scene,
+    camera: &Camera,
+    settings: &RenderSettings,
+    config: CacheConfig,
+    threads: usize,
+) -> (FrameResult, Vec<crate::ic::Record>) {
+    struct Frame<'a> {
+        scene: &'a Scene,
+        camera: &'a Camera,
+        settings: &'a RenderSettings,
+        threads: usize,
+    }
+    impl CacheJob for Frame<'_> {
+        type Output = (FrameResult, Vec<crate::ic::Record>);
+        fn run<C: IrradianceCache>(self, mut cache: C) -> Self::Output {
+            let out = render_frame(
+                self.scene,
+                self.camera,
+                self.settings,
+                &mut cache,
+                self.threads,
+            );
+            (out, cache.snapshot())
+        }
+    }
+    scheme.build(
+        config,
+        Frame {
+            scene,
+            camera,
+            settings,
+            threads,
+        },
+    )
+}
+
+/// Renders the reference (scheme `none`): [`render_frame`] with a [`NoCache`] over `config`.
 pub fn render_reference(
     scene: &Scene,
     camera: &Camera,
     settings: &RenderSettings,
+    config: CacheConfig,
     threads: usize,
 ) -> FrameResult {
-    let start = Instant::now();
-    let label = format!("{} none", scene.name());
-    let (image, counters, _) =
-        run_workers::<Sequential>(scene, camera, settings, None, threads, &label);
-    let stats = FrameStats {
-        seconds: start.elapsed().as_secs_f64(),
-        ..base_stats(settings, threads, "none", &counters)
-    };
-    FrameResult { image, stats }
+    render_frame(scene, camera, settings, &mut NoCache::new(config), threads)
 }
 
 /// Renders `frames` frames of the scene's orbit ([`Camera::orbit`] at `i / frames` turns) with one
@@ -515,23 +270,4 @@ pub fn render_orbit<C: IrradianceCache>(
             out.stats
         })
         .collect()
-}
-
-#[cfg(test)]
-mod tests {
-    use super::strata_grid;
-
-    #[test]
-    fn strata_grids_are_as_square_as_the_count_allows() {
-        assert_eq!(strata_grid(1), (1, 1));
-        assert_eq!(strata_grid(4), (2, 2));
-        assert_eq!(strata_grid(6), (3, 2));
-        assert_eq!(strata_grid(7), (7, 1));
-        assert_eq!(strata_grid(16), (4, 4));
-        for n in 1..200 {
-            let (c, r) = strata_grid(n);
-            assert_eq!(c * r, n);
-            assert!(c >= r);
-        }
-    }
 }

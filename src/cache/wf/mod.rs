@@ -29,6 +29,7 @@
 mod list;
 pub mod orderings;
 
+use super::frame::{sum_stats, Ledger};
 use super::octree::{Cell, Octant, MAX_DEPTH};
 use super::{
     collect_valid, CacheConfig, CacheHandle, CacheStats, FrameReport, HandleCore, Inserted,
@@ -104,6 +105,7 @@ pub struct WaitFree<O: Orderings = Minimal> {
     config: CacheConfig,
     policy: CasFailure,
     root: Box<Node<O>>,
+    ledger: Ledger<()>,
     stats: CacheStats,
 }
 
@@ -144,6 +146,7 @@ impl<O: Orderings> WaitFree<O> {
             config,
             policy,
             root: Box::new(Node::new()),
+            ledger: Ledger::new(),
             stats: CacheStats::default(),
         }
     }
@@ -303,14 +306,14 @@ fn build_path<O: Orderings>(cell: Cell, level: u32, depth: u32, record: Record) 
 }
 
 /// A WF worker.
+#[must_use = "a handle does nothing unless it is used"]
 pub struct WfHandle<'c, O: Orderings> {
     cache: &'c WaitFree<O>,
-    core: HandleCore,
+    core: HandleCore<'c, ()>,
 }
 
 impl<O: Orderings> IrradianceCache for WaitFree<O> {
     type Handle<'c> = WfHandle<'c, O>;
-    type Residue = WorkerStats;
 
     fn scheme(&self) -> &'static str {
         match self.policy {
@@ -326,13 +329,16 @@ impl<O: Orderings> IrradianceCache for WaitFree<O> {
     fn handle(&self, worker: WorkerId) -> WfHandle<'_, O> {
         WfHandle {
             cache: self,
-            core: HandleCore::new(worker, self.stats.frames),
+            core: HandleCore::new(&self.ledger, worker, ()),
         }
     }
 
-    fn end_frame(&mut self, residues: Vec<WorkerStats>) -> FrameReport {
-        let mut report = FrameReport::default();
-        residues.iter().for_each(|s| report.workers += s);
+    fn end_frame(&mut self) -> FrameReport {
+        let deposits = self.ledger.close();
+        let report = FrameReport {
+            workers: sum_stats(&deposits),
+            ..FrameReport::default()
+        };
         self.stats.totals += &report.workers;
         self.stats.frames += 1;
         report
@@ -359,8 +365,6 @@ impl<O: Orderings> IrradianceCache for WaitFree<O> {
 }
 
 impl<O: Orderings> CacheHandle for WfHandle<'_, O> {
-    type Residue = WorkerStats;
-
     fn worker(&self) -> WorkerId {
         self.core.worker
     }
@@ -394,9 +398,5 @@ impl<O: Orderings> CacheHandle for WfHandle<'_, O> {
 
     fn stats(&self) -> &WorkerStats {
         &self.core.stats
-    }
-
-    fn finish(self) -> WorkerStats {
-        self.core.stats
     }
 }
