@@ -311,13 +311,15 @@ impl Animation {
         }
     }
 
-    /// Writes `animation-<scene>.csv`, `.md` and `.png` into `dir`.
+    /// Writes `animation-<scene>.csv`, `.md`, `.png` and `.svg` into `dir`.
     pub fn write(&self, dir: &Path, command: &str) -> Result<(), String> {
         std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
         let stem = format!("animation-{}", self.config.scene);
         write_file(&dir.join(format!("{stem}.csv")), &self.csv())?;
         write_file(&dir.join(format!("{stem}.md")), &self.markdown(command))?;
-        self.figure().write_png(&dir.join(format!("{stem}.png")))
+        let figure = self.figure();
+        figure.write_png(&dir.join(format!("{stem}.png")))?;
+        figure.write_svg(&dir.join(format!("{stem}.svg")))
     }
 }
 
@@ -363,6 +365,8 @@ mod tests {
         assert!(md.contains("OVERSUBSCRIBED"));
         let png = image::open(dir.join("animation-cornell.png")).unwrap();
         assert_eq!(png.width(), 1200);
+        let svg = std::fs::read_to_string(dir.join("animation-cornell.svg")).unwrap();
+        assert!(svg.contains("NEW IC SAMPLES PER FRAME"));
         std::fs::remove_dir_all(&dir).unwrap();
         assert!(run(
             &AnimationConfig {

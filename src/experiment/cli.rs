@@ -18,11 +18,11 @@ pub const LIGHT_SAMPLES: u32 = 2;
 #[derive(Clone, Debug, clap::Subcommand)]
 pub enum ReproduceCommand {
     /// Table 1 and Figure 1: every scene with an empty cache, TRA on 1 thread and each parallel
-    /// scheme at each thread count, several runs each (medians). Writes table1.md, table1.csv
-    /// and figure1.png.
+    /// scheme at each thread count, several runs each (medians). Writes table1.md, table1.csv,
+    /// figure1.png and figure1.svg.
     Table1(Table1Args),
     /// Figures 2 and 3: the 360° orbit reusing the cache across frames, per scheme. Writes
-    /// animation-<scene>.csv, .md and .png.
+    /// animation-<scene>.csv, .md, .png and .svg.
     Animation(AnimationArgs),
 }
 
@@ -205,7 +205,7 @@ pub fn run(command: ReproduceCommand) -> Result<(), String> {
                 );
             }
             println!(
-                "wrote {}/table1.md, table1.csv, figure1.png ({:.0} s)",
+                "wrote {}/table1.md, table1.csv, figure1.png, figure1.svg ({:.0} s)",
                 a.out_dir.display(),
                 t.seconds
             );
@@ -253,7 +253,7 @@ pub fn run(command: ReproduceCommand) -> Result<(), String> {
                 );
             }
             println!(
-                "wrote {}/animation-{}.csv, .md, .png",
+                "wrote {}/animation-{}.csv, .md, .png, .svg",
                 a.out_dir.display(),
                 a.scene
             );

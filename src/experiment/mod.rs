@@ -1,7 +1,7 @@
 //! The paper's experiments as code (DESIGN.md, layer 6): still images with an empty cache at
 //! 1/2/4/8 threads per scheme (Table 1, Figure 1, [`table1`]) and the orbit reusing the cache
-//! across frames (Figures 2–3, [`animation`]). Results as Markdown, CSV and PNG plots ([`plot`],
-//! drawn with a built-in bitmap font, [`font`]).
+//! across frames (Figures 2–3, [`animation`]). Results as Markdown, CSV, and plots as PNG and
+//! SVG ([`plot`], drawn with plotters and a font compiled in).
 //!
 //! Every table and plot states the machine's core count and which thread counts are
 //! oversubscribed ([`Machine`]): on a 2-core machine, 4 and 8 threads measure time-slicing, not
@@ -9,7 +9,6 @@
 
 pub mod animation;
 pub mod cli;
-pub mod font;
 pub mod paper;
 pub mod plot;
 pub mod table1;

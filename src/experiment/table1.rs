@@ -754,12 +754,14 @@ impl Table1 {
         }
     }
 
-    /// Writes `table1.md`, `table1.csv` and `figure1.png` into `dir`.
+    /// Writes `table1.md`, `table1.csv`, `figure1.png` and `figure1.svg` into `dir`.
     pub fn write(&self, dir: &Path, command: &str) -> Result<(), String> {
         std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
         write_file(&dir.join("table1.md"), &self.markdown(command))?;
         write_file(&dir.join("table1.csv"), &self.csv())?;
-        self.figure().write_png(&dir.join("figure1.png"))
+        let figure = self.figure();
+        figure.write_png(&dir.join("figure1.png"))?;
+        figure.write_svg(&dir.join("figure1.svg"))
     }
 }
 
@@ -899,6 +901,8 @@ mod tests {
         assert!(csv.contains("cornell,wf,3,2,true,"));
         let png = image::open(dir.join("figure1.png")).unwrap();
         assert!(png.width() >= 760 && png.height() > 520);
+        let svg = std::fs::read_to_string(dir.join("figure1.svg")).unwrap();
+        assert!(svg.contains("CORNELL"));
         std::fs::remove_dir_all(&dir).unwrap();
     }
 }
