@@ -860,6 +860,23 @@ mod tests {
     }
 
     #[test]
+    fn jpeg_and_tga_textures_decode_too() {
+        let dir = folder("formats");
+        let tga = dir.join("t.tga");
+        image::save_buffer(&tga, &TEXELS.concat(), 2, 2, image::ColorType::Rgb8).unwrap();
+        let got = texture_mean(&tga).unwrap();
+        assert!((got - texels_mean()).abs().max_element() < 1e-5, "{got}");
+        // A uniform JPEG (lossy, so only near its colour).
+        let jpg = dir.join("u.jpg");
+        let bytes: Vec<u8> = [200u8, 100, 50].repeat(64);
+        image::save_buffer(&jpg, &bytes, 8, 8, image::ColorType::Rgb8).unwrap();
+        let got = texture_mean(&jpg).unwrap();
+        let want = Vec3::from_array([200u8, 100, 50].map(|c| srgb_to_linear(f32::from(c) / 255.0)));
+        assert!((got - want).abs().max_element() < 0.02, "{got} != {want}");
+        std::fs::remove_dir_all(&dir).ok();
+    }
+
+    #[test]
     fn a_texture_that_cannot_be_used_is_a_warning_and_leaves_grey() {
         let dir = folder("notex");
         std::fs::write(dir.join("junk.png"), b"not a png at all").unwrap();
