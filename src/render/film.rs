@@ -1,6 +1,6 @@
-//! The film: an HDR RGB image, written once as a tone-mapped PNG and as a PFM, plus the classic
-//! cache visualisation (record positions drawn over the render) and the relative RMSE used to
-//! compare schemes.
+//! The film: an HDR RGB image, written once as a tone-mapped PNG, as a PFM and as a Radiance
+//! `.hdr` (RGBE), plus the classic cache visualisation (record positions drawn over the render)
+//! and the relative RMSE used to compare schemes.
 
 use glam::{Vec2, Vec3};
 use std::io::{self, BufWriter, Write};
@@ -196,6 +196,41 @@ impl Image {
         Ok(img)
     }
 
+    /// Writes the linear image as a Radiance HDR file (`#?RADIANCE`, RLE RGBE, rows top to bottom)
+    /// with the `image` crate's encoder, for the HDR tools that do not read PFM.
+    ///
+    /// RGBE keeps 8 bits of mantissa under an exponent shared by the three channels: each channel
+    /// comes back within 1/128 of the pixel's largest channel (truncated, not rounded). What RGBE
+    /// cannot hold is clamped first: negative and NaN channels are written as 0, channels above
+    /// 1e38 (+inf included) as 1e38, and a pixel whose largest channel is below 1e-38 as black.
+    pub fn write_hdr(&self, path: &Path) -> io::Result<()> {
+        let rgb: Vec<image::Rgb<f32>> = self.pixels.iter().map(|&p| rgbe_safe(p)).collect();
+        let file = std::fs::File::create(path)
+            .map_err(|e| io::Error::new(e.kind(), format!("{}: {e}", path.display())))?;
+        let mut out = BufWriter::new(file);
+        image::codecs::hdr::HdrEncoder::new(&mut out)
+            .encode(&rgb, self.width as usize, self.height as usize)
+            .map_err(|e| io::Error::other(format!("{}: {e}", path.display())))?;
+        out.flush()
+    }
+
+    /// Reads a Radiance HDR file (such as one [`Image::write_hdr`] wrote) with the `image`
+    /// crate's decoder.
+    pub fn read_hdr(path: &Path) -> io::Result<Self> {
+        let with_path = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
+        let file =
+            std::fs::File::open(path).map_err(|e| io::Error::new(e.kind(), with_path(&e)))?;
+        let decoded = image::codecs::hdr::HdrDecoder::new(io::BufReader::new(file))
+            .and_then(image::DynamicImage::from_decoder)
+            .map_err(|e| io::Error::new(io::ErrorKind::InvalidData, with_path(&e)))?
+            .into_rgb32f();
+        Ok(Self {
+            width: decoded.width(),
+            height: decoded.height(),
+            pixels: decoded.pixels().map(|p| Vec3::from_array(p.0)).collect(),
+        })
+    }
+
     /// The tone-mapped render, darkened, with a dot at each of `points` (image positions),
     /// coloured by `colour`: Ward's classic picture of where the records are.
     pub fn overlay(&self, exposure: f32, points: &[(Vec2, Vec3)]) -> Vec<u8> {
@@ -237,6 +272,19 @@ impl Image {
             image::ColorType::Rgb8,
         )
         .map_err(|e| io::Error::other(format!("{}: {e}", path.display())))
+    }
+}
+
+/// `p` within what RGBE can hold (see [`Image::write_hdr`]): the `image` encoder's exponent
+/// arithmetic assumes a finite, non-negative pixel whose largest channel is in [2^-127, 2^127).
+fn rgbe_safe(p: Vec3) -> image::Rgb<f32> {
+    let c = p
+        .to_array()
+        .map(|c| if c.is_nan() { 0.0 } else { c.clamp(0.0, 1e38) });
+    if c.iter().all(|&c| c < 1e-38) {
+        image::Rgb([0.0; 3])
+    } else {
+        image::Rgb(c)
     }
 }
 
@@ -282,6 +330,85 @@ mod tests {
         let b = Image::read_pfm(&path).unwrap();
         std::fs::remove_file(&path).ok();
         assert_eq!(a, b);
+    }
+
+    fn temp_path(name: &str) -> std::path::PathBuf {
+        std::env::temp_dir().join(format!("wfic-film-{}-{name}", std::process::id()))
+    }
+
+    #[test]
+    fn hdr_round_trip_within_rgbe_precision() {
+        // 9 wide, so the encoder takes its run-length path (8 to 32768 pixels a row).
+        let mut a = Image::new(9, 3);
+        let grey = [0.5, 3.0, 1e4, 1e-3, 0.25, 7.75, 1.0, 123.456, 0.1];
+        for (x, g) in grey.into_iter().enumerate() {
+            a.set(x as u32, 0, Vec3::splat(g));
+            a.set(x as u32, 1, Vec3::new(g, 0.9 * g, 0.8 * g));
+            a.set(x as u32, 2, Vec3::new(0.5 * g, 2.0 * g, 0.01 * g));
+        }
+        a.set(8, 2, Vec3::ZERO);
+        let path = temp_path("round.hdr");
+        a.write_hdr(&path).unwrap();
+        let bytes = std::fs::read(&path).unwrap();
+        let b = Image::read_hdr(&path).unwrap();
+        std::fs::remove_file(&path).ok();
+        assert!(bytes.starts_with(b"#?RADIANCE\n"), "no Radiance magic");
+        assert_eq!((b.width(), b.height()), (9, 3));
+        for y in 0..3 {
+            for x in 0..9 {
+                let (p, q) = (a.get(x, y), b.get(x, y));
+                for c in 0..3 {
+                    // Each channel within 1/128 of the pixel's largest channel...
+                    let err = (p[c] - q[c]).abs();
+                    assert!(
+                        err <= p.max_element() / 128.0,
+                        "({x}, {y}): {p} read as {q}"
+                    );
+                    // ...and so within 1% of itself where the channels are alike.
+                    if y < 2 {
+                        assert!(err < 0.01 * p[c], "({x}, {y}) channel {c}: {p} read as {q}");
+                    }
+                }
+            }
+        }
+        assert_eq!(b.get(8, 2), Vec3::ZERO);
+    }
+
+    #[test]
+    fn hdr_clamps_what_rgbe_cannot_hold() {
+        let mut a = Image::new(4, 1);
+        a.set(0, 0, Vec3::new(-1.0, 2.0, f32::NAN));
+        a.set(1, 0, Vec3::new(f32::INFINITY, 1.0, 0.0));
+        a.set(2, 0, Vec3::splat(1e-40));
+        a.set(3, 0, Vec3::splat(f32::NEG_INFINITY));
+        let path = temp_path("clamp.hdr");
+        a.write_hdr(&path).unwrap();
+        let b = Image::read_hdr(&path).unwrap();
+        std::fs::remove_file(&path).ok();
+        let p = b.get(0, 0);
+        assert_eq!((p.x, p.z), (0.0, 0.0), "{p}");
+        assert!((p.y - 2.0).abs() < 2.0 / 128.0, "{p}");
+        let q = b.get(1, 0);
+        assert!(q.x > 9e37 && q.x.is_finite(), "{q}");
+        assert_eq!(b.get(2, 0), Vec3::ZERO);
+        assert_eq!(b.get(3, 0), Vec3::ZERO);
+    }
+
+    #[test]
+    fn hdr_errors_name_the_file() {
+        let dir = temp_path("no-such-dir");
+        let e = Image::new(2, 2).write_hdr(&dir.join("x.hdr")).unwrap_err();
+        assert!(e.to_string().contains("no-such-dir"), "{e}");
+        let e = Image::read_hdr(&dir.join("x.hdr")).unwrap_err();
+        assert_eq!(e.kind(), io::ErrorKind::NotFound);
+        assert!(e.to_string().contains("x.hdr"), "{e}");
+        // A PFM is not a Radiance file.
+        let pfm = temp_path("not.hdr");
+        Image::new(2, 2).write_pfm(&pfm).unwrap();
+        let e = Image::read_hdr(&pfm).unwrap_err();
+        std::fs::remove_file(&pfm).ok();
+        assert_eq!(e.kind(), io::ErrorKind::InvalidData);
+        assert!(e.to_string().contains("not.hdr"), "{e}");
     }
 
     #[test]
