@@ -249,16 +249,22 @@ fn criterion_dir() -> PathBuf {
         .join("criterion")
 }
 
+/// The parts of a criterion `estimates.json` the ratios need.
+#[derive(serde::Deserialize)]
+struct Estimates {
+    median: Estimate,
+}
+
+#[derive(serde::Deserialize)]
+struct Estimate {
+    point_estimate: f64,
+}
+
 /// The median point estimate (ns) in a criterion `estimates.json`.
 fn median_ns(json: &str) -> Option<f64> {
-    let at = json.find("\"median\"")?;
-    let rest = &json[at..];
-    let p = rest.find("\"point_estimate\":")? + "\"point_estimate\":".len();
-    let num: String = rest[p..]
-        .chars()
-        .take_while(|c| c.is_ascii_digit() || matches!(c, '.' | 'e' | 'E' | '-' | '+'))
-        .collect();
-    num.parse().ok()
+    serde_json::from_str::<Estimates>(json)
+        .ok()
+        .map(|e| e.median.point_estimate)
 }
 
 /// Prints each policy's median over `minimal`'s, per group, from this run's estimates.

@@ -6,13 +6,20 @@
 //!
 //! Layers, each using only the ones above it:
 //!
-//! 1. [`sync`] — the only module naming atomics, `UnsafeCell`, threads and locks (std, loom or shuttle).
+//! 1. [`sync`] — the only module naming atomics, `UnsafeCell`, threads and locks (std, loom or
+//!    shuttle); [`rng`] — the crate's one random-number generator (SplitMix64).
 //! 2. [`ic`] — irradiance-cache mathematics: records, Ward's weight, validity, interpolation.
-//! 3. [`cache`] — the four schemes behind [`cache::IrradianceCache`].
+//! 3. [`cache`] — the four schemes and the no-cache reference behind
+//!    [`cache::IrradianceCache`], the frame protocol ([`cache::Frame`]) and the scheme list
+//!    ([`cache::Scheme`]).
+//! 4. [`lincheck`] — concurrent histories and their checkers: linearizability against a
+//!    sequential specification, and set consistency.
 //! 5. `render` — a compact renderer that drives the caches end to end (not built under the
-//!    model checkers).
-//! 6. `experiment` — the paper's experiments (Table 1, Figures 1–3) as code: Markdown, CSV and
-//!    PNG plots (not built under the model checkers).
+//!    model checkers); [`workload`] — a synthetic renderer-like workload for the demo and the
+//!    benchmarks.
+//! 6. `experiment` — the paper's experiments (Table 1, Figures 1–3) as code: Markdown, CSV, PNG
+//!    and SVG plots (not built under the model checkers).
+//! 7. `main.rs` — the `wfic` command line.
 //!
 //! The paper mapped to the code, and every deviation from it, is in `paper-notes.md`.
 #![warn(missing_docs)]
@@ -25,6 +32,7 @@ pub mod ic;
 pub mod lincheck;
 #[cfg(not(checker))]
 pub mod render;
+pub mod rng;
 pub mod sync;
 pub mod workload;
 

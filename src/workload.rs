@@ -10,46 +10,12 @@ use crate::cache::CacheConfig;
 #[cfg(not(checker))]
 use crate::cache::{CacheHandle, FrameReport, IrradianceCache};
 use crate::ic::Record;
+use crate::rng::Rng;
 #[cfg(not(checker))]
 use crate::sync::{AtomicUsize, Ordering};
 use glam::Vec3;
 #[cfg(not(checker))]
 use std::time::{Duration, Instant};
-
-/// SplitMix64 (Steele, Lea, Flood 2014): a small, fast, deterministic generator.
-#[derive(Clone, Debug)]
-pub struct SplitMix64(u64);
-
-impl SplitMix64 {
-    /// A generator seeded with `seed`.
-    pub fn new(seed: u64) -> Self {
-        Self(seed)
-    }
-
-    /// The next 64 random bits.
-    pub fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-        z ^ (z >> 31)
-    }
-
-    /// Uniform in `[0, 1)`.
-    pub fn next_f32(&mut self) -> f32 {
-        (self.next_u64() >> 40) as f32 / (1u64 << 24) as f32
-    }
-
-    /// Uniform in `[lo, hi)`.
-    pub fn range(&mut self, lo: f32, hi: f32) -> f32 {
-        lo + (hi - lo) * self.next_f32()
-    }
-
-    /// Uniform in `0..n` (multiply-shift, no modulo bias worth speaking of); `n` must be positive.
-    pub fn below(&mut self, n: u64) -> u64 {
-        (((self.next_u64() >> 32) * n) >> 32).min(n - 1)
-    }
-}
 
 /// A box-shaped room of edge `size` with two boxes standing on its floor.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -67,7 +33,7 @@ impl Room {
 
     /// A random shading point and its normal: on one of the six walls (facing in) or on the top or
     /// a side of one of the two boxes.
-    pub fn surface_point(&self, rng: &mut SplitMix64) -> (Vec3, Vec3) {
+    pub fn surface_point(&self, rng: &mut Rng) -> (Vec3, Vec3) {
         let s = self.size;
         let (u, v) = (rng.range(0.0, s), rng.range(0.0, s));
         match (rng.next_u64() % 8) as u8 {
@@ -97,7 +63,7 @@ impl Room {
     }
 
     /// The record a miss at `p` computes, with a harmonic-mean distance drawn from the room's scale.
-    pub fn record(&self, rng: &mut SplitMix64, p: Vec3, n: Vec3) -> Record {
+    pub fn record(&self, rng: &mut Rng, p: Vec3, n: Vec3) -> Record {
         let radius = self.size * rng.range(0.02, 0.12);
         let e = self.irradiance(p, n);
         let g = (e / self.size) * 0.4;
@@ -172,8 +138,7 @@ pub fn run_frame<C: IrradianceCache>(
                 break;
             }
             let last = (first + CHUNK).min(frame.points);
-            let mut rng =
-                SplitMix64::new(frame.seed ^ (chunk as u64).wrapping_mul(0x2545_f491_4f6c_dd1d));
+            let mut rng = Rng::new(frame.seed ^ (chunk as u64).wrapping_mul(0x2545_f491_4f6c_dd1d));
             for _ in first..last {
                 let (p, n) = frame.room.surface_point(&mut rng);
                 if handle.lookup(p, n).is_none() {
@@ -203,7 +168,7 @@ mod tests {
     #[test]
     fn surface_points_lie_in_the_room_with_unit_normals() {
         let room = Room { size: 4.0 };
-        let mut rng = SplitMix64::new(1);
+        let mut rng = Rng::new(1);
         for _ in 0..1000 {
             let (p, n) = room.surface_point(&mut rng);
             assert!(p.min_element() >= 0.0 && p.max_element() <= 4.0);

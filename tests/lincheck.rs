@@ -18,7 +18,7 @@ use wfic::lincheck::{
     check, check_set_consistency, shrink, shrink_nonlinearizable, CacheOp, CacheRet, CacheSpec,
     History, HistoryBuilder, Recorder, RecordingHandle, SetViolation,
 };
-use wfic::workload::SplitMix64;
+use wfic::rng::Rng;
 
 type CacheHistory = History<CacheOp, CacheRet>;
 
@@ -36,7 +36,7 @@ const SPOTS: [Vec3; 4] = [
     Vec3::new(5.0, 5.0, 5.0),
 ];
 
-fn near(rng: &mut SplitMix64, spread: f32) -> Vec3 {
+fn near(rng: &mut Rng, spread: f32) -> Vec3 {
     let spot = SPOTS[rng.below(SPOTS.len() as u64) as usize];
     spot + Vec3::new(
         rng.range(-spread, spread),
@@ -46,7 +46,7 @@ fn near(rng: &mut SplitMix64, spread: f32) -> Vec3 {
 }
 
 /// Radii from 0.2 to 3: records land at several depths, from the root's children down.
-fn random_record(rng: &mut SplitMix64) -> Record {
+fn random_record(rng: &mut Rng) -> Record {
     let radius = [0.2, 0.5, 1.0, 3.0][rng.below(4) as usize];
     Record::new(near(rng, 0.5), Vec3::Z, Vec3::splat(rng.next_f32()), radius)
 }
@@ -69,7 +69,7 @@ fn run<C: IrradianceCache>(
                 log.reserve(ops);
                 let (barrier, cache) = (&barrier, cache);
                 s.spawn(move || {
-                    let mut rng = SplitMix64::new(seed ^ (t as u64) << 32);
+                    let mut rng = Rng::new(seed ^ (t as u64) << 32);
                     let mut h = RecordingHandle::new(cache.handle(WorkerId::new(t as u32)), log);
                     barrier.wait();
                     for _ in 0..ops {
@@ -435,7 +435,7 @@ fn a_cache_that_drops_inserts_is_caught_and_shrunk() {
                 s.spawn(move || {
                     let inner = cache.handle(WorkerId::new(t as u32));
                     let mut h = RecordingHandle::new(DropsEveryThird { inner, count: 0 }, log);
-                    let mut rng = SplitMix64::new(t as u64);
+                    let mut rng = Rng::new(t as u64);
                     for _ in 0..100 {
                         if rng.below(3) == 0 {
                             h.insert(random_record(&mut rng)).unwrap();

@@ -380,7 +380,7 @@ fn args(dir: &std::path::Path) -> RenderArgs {
 fn the_cli_writes_every_output_and_refuses_bad_input() {
     let dir = temp_dir("cli");
     run_render(args(&dir)).unwrap();
-    for f in ["c.png", "c.pfm", "c-records.png", "c.json"] {
+    for f in ["c.png", "c.pfm", "c.hdr", "c-records.png", "c.json"] {
         assert!(dir.join(f).metadata().unwrap().len() > 0, "{f}");
     }
     let json = std::fs::read_to_string(dir.join("c.json")).unwrap();
@@ -404,8 +404,16 @@ fn the_cli_writes_every_output_and_refuses_bad_input() {
         );
     }
     assert!(json.contains("\"width\": 24") && json.contains("\"scheme\": \"wf\""));
-    let hdr = Image::read_pfm(&dir.join("c.pfm")).unwrap();
+    let pfm = Image::read_pfm(&dir.join("c.pfm")).unwrap();
+    assert_eq!((pfm.width(), pfm.height()), (24, 20));
+    // The Radiance file holds the same picture, within RGBE's precision.
+    let hdr = Image::read_hdr(&dir.join("c.hdr")).unwrap();
     assert_eq!((hdr.width(), hdr.height()), (24, 20));
+    let (a, b) = (pfm.mean(), hdr.mean());
+    assert!(
+        (a - b).abs().max_element() <= 0.01 * a.max_element(),
+        "{a} vs {b}"
+    );
 
     let mut zero = args(&dir);
     zero.threads = 0;

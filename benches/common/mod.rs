@@ -11,7 +11,7 @@ use std::sync::OnceLock;
 use std::time::{Duration, Instant};
 use wfic::cache::{CacheConfig, CacheHandle, IrradianceCache, Octree};
 use wfic::ic::{clamp_radius, Accumulator, Record, WorkerId};
-use wfic::workload::SplitMix64 as Rng;
+use wfic::rng::Rng;
 
 /// Records in the cache before any timed operation.
 pub const PREFILL: usize = 4096;

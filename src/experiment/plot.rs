@@ -17,19 +17,8 @@ use std::ops::Range;
 use std::path::Path;
 use std::sync::OnceLock;
 
-/// An RGB colour.
-pub type Colour = [u8; 3];
-
-/// Colours for the schemes, in [`crate::render::cli::Scheme::ALL`] order where it matters.
-pub const PALETTE: [Colour; 7] = [
-    [60, 60, 60],    // tra: dark grey
-    [214, 39, 40],   // lck: red
-    [255, 127, 14],  // lck-rw: orange
-    [31, 119, 180],  // lw: blue
-    [44, 160, 44],   // wf: green
-    [148, 103, 189], // wf-discard: purple
-    [140, 86, 75],   // none: brown
-];
+/// An RGB colour (a scheme's is [`crate::cache::Scheme::colour`]).
+pub type Colour = crate::cache::Rgb8;
 
 const WHITE: Colour = [255, 255, 255];
 const BLACK: Colour = [0, 0, 0];

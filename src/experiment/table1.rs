@@ -104,7 +104,7 @@ impl Table1Config {
     }
 }
 
-/// The thread count the checks are made at: the 2 real cores of the machine the issue targets.
+/// The thread count the checks are made at: the 2 real cores of the machine the study targets.
 pub const CHECK_THREADS: usize = 2;
 
 /// The schemes whose [`CHECK_THREADS`] columns the checks compare.
@@ -255,7 +255,7 @@ pub struct Table1 {
     pub seconds: f64,
 }
 
-/// A statement the issue asks to hold, evaluated on a run.
+/// A statement the reproduction must make hold (WF against TRA, LCK and LW), evaluated on a run.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Check {
     /// Scene.

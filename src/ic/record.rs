@@ -13,9 +13,16 @@ impl WorkerId {
     /// The largest worker number a [`RecordId`] can carry.
     pub const MAX: u32 = (1 << 16) - 1;
 
-    /// Worker number `n`, reduced modulo 2^16 so the invariant holds for any input.
+    /// Worker number `n`.
+    ///
+    /// # Panics
+    /// If `n` exceeds [`WorkerId::MAX`]: a record id has 16 bits for it, and a reduced number
+    /// would make two workers' records share ids.
     pub const fn new(n: u32) -> Self {
-        Self(n & Self::MAX)
+        if n > Self::MAX {
+            panic!("worker number exceeds WorkerId::MAX (65535): a record id holds 16 bits of it");
+        }
+        Self(n)
     }
 
     /// The worker number.
@@ -124,7 +131,9 @@ pub enum InsertError {
         half_size: f32,
     },
     /// A record list cannot take another record. Only reachable under the `loom` feature, where
-    /// lists are shrunk to a few slots so the model checker reaches segment boundaries.
+    /// lists are shrunk to a few slots so the model checker reaches segment boundaries; the
+    /// variant does not exist in other builds.
+    #[cfg(feature = "loom")]
     ListFull,
 }
 
@@ -145,6 +154,7 @@ impl fmt::Display for InsertError {
                 f,
                 "record position {position} lies outside the cache bounds (centre {center}, half-size {half_size})"
             ),
+            #[cfg(feature = "loom")]
             Self::ListFull => write!(f, "record list is full (model-checking capacity)"),
         }
     }
@@ -270,13 +280,18 @@ mod tests {
     }
 
     #[test]
+    #[should_panic(expected = "exceeds WorkerId::MAX")]
+    fn worker_numbers_beyond_16_bits_are_refused() {
+        let _ = WorkerId::new(WorkerId::MAX + 1);
+    }
+
+    #[test]
     fn record_id_packs_worker_and_sequence() {
         let id = RecordId::new(WorkerId::new(7), 3, 123_456);
         assert_eq!(id.worker(), WorkerId::new(7));
         assert_eq!((id.frame(), id.seq()), (3, 123_456));
         assert_eq!(id.to_string(), "r7.3.123456");
         assert_ne!(id, RecordId::new(WorkerId::new(7), 4, 123_456));
-        assert_eq!(WorkerId::new(WorkerId::MAX + 2), WorkerId::new(1));
     }
 
     #[test]

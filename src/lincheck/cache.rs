@@ -10,7 +10,7 @@
 //! **Discarded inserts.** Whether a WF insert is `Stored` or `Discarded` is the cache's policy
 //! choice, not something a sequential cache decides. The specification accepts either: a
 //! `Discarded` insert is a no-op (the record must then never be seen), a `Stored` one adds the
-//! record. Likewise an insert refused with [`InsertError::ListFull`] (only under loom) is a no-op.
+//! record. Likewise an insert refused with `InsertError::ListFull` (only under loom) is a no-op.
 //!
 //! [`BruteForce::valid_records`]: crate::cache::BruteForce::valid_records
 
@@ -175,6 +175,7 @@ impl Specification for CacheSpec {
                 *id == r.id() && self.config.check(r).is_ok()
             }
             // A model-checking capacity limit (loom only): a no-op.
+            #[cfg(feature = "loom")]
             (CacheOp::Insert(_), CacheRet::Rejected(InsertError::ListFull)) => true,
             _ => self.apply(op) == *observed,
         }

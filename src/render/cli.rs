@@ -101,9 +101,14 @@ pub struct RenderArgs {
     /// Tone-mapped PNG output.
     #[arg(long, default_value = "render.png")]
     pub out: PathBuf,
-    /// HDR output (PFM). Default: the PNG's name with `.pfm`.
+    /// HDR output in Radiance's RGBE format (opened by standard HDR tools). Default: the PNG's
+    /// name with `.hdr`.
     #[arg(long)]
     pub hdr: Option<PathBuf>,
+    /// HDR output as a PFM (32-bit floats, what the accuracy checks read). Default: the PNG's
+    /// name with `.pfm`.
+    #[arg(long)]
+    pub pfm: Option<PathBuf>,
     /// Record-position overlay (PNG). Default: the PNG's name with `-records.png`.
     #[arg(long)]
     pub records: Option<PathBuf>,
@@ -245,13 +250,21 @@ pub fn run_render(args: RenderArgs) -> Result<(), RenderError> {
     let io = |e: std::io::Error| RenderError::Io(e.to_string());
     let exposure = frame.image.auto_exposure();
     frame.image.write_png(&args.out, exposure).map_err(io)?;
-    let hdr = args
-        .hdr
+    let pfm = args
+        .pfm
         .clone()
         .unwrap_or_else(|| args.out.with_extension("pfm"));
     frame
         .image
-        .write_pfm(&hdr)
+        .write_pfm(&pfm)
+        .map_err(|e| RenderError::Io(format!("{}: {e}", pfm.display())))?;
+    let hdr = args
+        .hdr
+        .clone()
+        .unwrap_or_else(|| args.out.with_extension("hdr"));
+    frame
+        .image
+        .write_hdr(&hdr)
         .map_err(|e| RenderError::Io(format!("{}: {e}", hdr.display())))?;
     let overlay = args
         .records
@@ -277,7 +290,7 @@ pub fn run_render(args: RenderArgs) -> Result<(), RenderError> {
     let s = &frame.stats;
     println!(
         "{} {} {}x{} threads={}: {:.3} s, {} IC samples, {} lookups, {} hits ({:.1}% shared), \
-         lock wait {:.4} s, merge {:.4} s, {} discarded, {} records; wrote {}, {}, {}",
+         lock wait {:.4} s, merge {:.4} s, {} discarded, {} records; wrote {}, {}, {}, {}",
         scene.name(),
         s.scheme,
         s.width,
@@ -293,6 +306,7 @@ pub fn run_render(args: RenderArgs) -> Result<(), RenderError> {
         s.discarded,
         s.cache_records,
         args.out.display(),
+        pfm.display(),
         hdr.display(),
         overlay.display(),
     );

@@ -9,7 +9,7 @@
 //! and the line.
 //!
 //! A hand-written reader rather than `tobj`: it is short, and it can say which line of which file
-//! is wrong, which the issue asks for.
+//! is wrong, which a user fixing an export needs.
 
 use super::camera::{Camera, Orbit};
 use super::scene::{Material, MaterialId, Scene, SceneBuilder, SceneError};

@@ -16,58 +16,31 @@ pub enum Stream {
     Position = 3,
 }
 
-/// SplitMix64 finaliser: a bijective 64-bit mix with good avalanche.
-#[inline]
-pub fn mix64(mut z: u64) -> u64 {
-    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-    z ^ (z >> 31)
-}
+pub use crate::rng::{mix64, Rng};
 
-/// A small, fast, seedable generator (SplitMix64). Not cryptographic; ample for Monte Carlo.
-#[derive(Clone, Debug)]
-pub struct Rng {
-    state: u64,
-}
-
+/// Per-pixel streams of the crate's generator.
 impl Rng {
-    const GAMMA: u64 = 0x9e37_79b9_7f4a_7c15;
+    /// The Weyl increment, for deriving stream states.
+    const STREAM_GAMMA: u64 = 0x9e37_79b9_7f4a_7c15;
 
     /// The stream `stream` of pixel `(x, y)` for frame seed `seed`.
     pub fn for_pixel(seed: u64, x: u32, y: u32, stream: Stream) -> Self {
         let key = mix64(seed ^ mix64((u64::from(y) << 32) | u64::from(x)));
-        Self {
-            state: mix64(key ^ (stream as u64).wrapping_mul(Self::GAMMA)),
-        }
+        Self::new(mix64(
+            key ^ (stream as u64).wrapping_mul(Self::STREAM_GAMMA),
+        ))
     }
 
     /// The stream `stream` of sample `sample` of pixel `(x, y)`. Sample 0 is the pixel's own
     /// stream ([`Rng::for_pixel`]), so one sample per pixel renders exactly as before supersampling
     /// existed; every other sample gets independent streams.
     pub fn for_sample(seed: u64, x: u32, y: u32, sample: u32, stream: Stream) -> Self {
-        let mut rng = Self::for_pixel(seed, x, y, stream);
-        if sample > 0 {
-            rng.state = mix64(rng.state ^ mix64(u64::from(sample)));
+        let pixel = Self::for_pixel(seed, x, y, stream);
+        if sample == 0 {
+            return pixel;
         }
-        rng
-    }
-
-    /// A generator from a raw seed.
-    pub fn new(seed: u64) -> Self {
-        Self { state: mix64(seed) }
-    }
-
-    /// The next 64 random bits.
-    #[inline]
-    pub fn next_u64(&mut self) -> u64 {
-        self.state = self.state.wrapping_add(Self::GAMMA);
-        mix64(self.state)
-    }
-
-    /// A uniform number in `[0, 1)` with 24 bits of precision.
-    #[inline]
-    pub fn next_f32(&mut self) -> f32 {
-        (self.next_u64() >> 40) as f32 * (1.0 / (1u64 << 24) as f32)
+        // The pixel's stream state, mixed with the sample number.
+        Self::new(mix64(pixel.state() ^ mix64(u64::from(sample))))
     }
 }
 
@@ -96,20 +69,5 @@ mod tests {
         let mut g = Rng::for_sample(7, 3, 4, 2, Stream::Direct);
         let (f0, g0) = (f.next_u64(), g.next_u64());
         assert!(f0 != a[0] && g0 != a[0] && f0 != g0);
-    }
-
-    #[test]
-    fn uniform_numbers_fill_the_unit_interval() {
-        let mut r = Rng::new(1);
-        let mut buckets = [0u32; 10];
-        for _ in 0..10_000 {
-            let u = r.next_f32();
-            assert!((0.0..1.0).contains(&u));
-            buckets[(u * 10.0) as usize] += 1;
-        }
-        assert!(
-            buckets.iter().all(|&n| (850..1150).contains(&n)),
-            "{buckets:?}"
-        );
     }
 }

@@ -2,7 +2,6 @@
 //! (obvhs's compressed wide BVH, built once per scene) that answers closest-hit and shadow queries.
 
 use super::camera::{Camera, Orbit};
-use super::sampler::Rng;
 use glam::{Vec3, Vec3A};
 use obvhs::cwbvh::{builder::build_cwbvh_from_tris, CwBvh};
 use obvhs::ray::{Ray, RayHit};
@@ -161,7 +160,6 @@ impl SceneBuilder {
                 Tri {
                     geometry: t,
                     normal: cross.normalize(),
-                    area: 0.5 * cross.length(),
                     material: material_of[i as usize],
                 }
             })
@@ -228,7 +226,6 @@ pub fn luminance(c: Vec3) -> f32 {
 struct Tri {
     geometry: Triangle,
     normal: Vec3,
-    area: f32,
     material: MaterialId,
 }
 
@@ -387,13 +384,6 @@ impl Scene {
             .ray_traverse_miss(ray, |r, id| self.tris[id].geometry.intersect(r))
     }
 
-    /// A point on a light, the light chosen by power and the point uniformly on it.
-    #[inline]
-    pub fn sample_light(&self, rng: &mut Rng) -> LightSample {
-        let u = [rng.next_f32(), rng.next_f32(), rng.next_f32()];
-        self.light_at(u)
-    }
-
     /// The light point for the uniform numbers `u` in `[0, 1)^3`: `u[0]` chooses the light (by
     /// power), `u[1]` and `u[2]` the point on it (uniform in area). Stratifying `u` stratifies the
     /// samples.
@@ -412,10 +402,5 @@ impl Scene {
             emission: l.emission,
             pdf_area: l.pdf / l.area,
         }
-    }
-
-    /// Surface area of every triangle (for tests and documentation).
-    pub fn surface_area(&self) -> f32 {
-        self.tris.iter().map(|t| t.area).sum()
     }
 }

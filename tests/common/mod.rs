@@ -46,7 +46,7 @@ pub fn for_each_scheme(config: CacheConfig, check: &mut impl SchemeCheck) {
 }
 
 /// The crate's deterministic generator, for test data.
-pub use wfic::workload::SplitMix64 as Rng;
+pub use wfic::rng::Rng;
 
 /// The six axis-aligned unit normals.
 pub const AXES: [Vec3; 6] = [

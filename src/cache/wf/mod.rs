@@ -41,6 +41,7 @@ use glam::Vec3;
 #[cfg(not(feature = "loom"))]
 use list::RecordList;
 use orderings::{ord, Site};
+use std::marker::PhantomData;
 use std::ptr;
 
 /// The record list itself, for the loom models that exercise it alone.
@@ -59,10 +60,18 @@ pub enum CasFailure {
 }
 
 /// An octree node. Children and segments are owned through raw pointers, freed in `Drop`.
+///
+/// `Send` and `Sync` are derived, not asserted: `AtomicPtr` is both whatever it points to, so the
+/// `_owns` marker makes the node's auto traits those of the `Box`es it really owns (as
+/// `RecordList`'s marker does for its segments). Sharing a node is sound because a child is only
+/// dereferenced after an Acquire load saw its Release publication, is never changed or freed
+/// while the tree is shared (only `Drop`, with `&mut`, frees it), and is read only through `&`.
 struct Node<O: Orderings> {
     /// Null, or a child published by a Release compare-and-swap and never changed again.
     children: [AtomicPtr<Node<O>>; 8],
     records: RecordList<O>,
+    /// The node owns its children as boxes (see the type's documentation).
+    _owns: PhantomData<[Box<Node<O>>; 8]>,
 }
 
 impl<O: Orderings> Node<O> {
@@ -70,6 +79,7 @@ impl<O: Orderings> Node<O> {
         Self {
             children: std::array::from_fn(|_| AtomicPtr::new(ptr::null_mut())),
             records: RecordList::new(),
+            _owns: PhantomData,
         }
     }
 
@@ -385,7 +395,12 @@ impl<O: Orderings> CacheHandle for WfHandle<'_, O> {
         match placed {
             Placed::Stored => Ok(self.core.inserted(Inserted::Stored(record.id()), steps)),
             Placed::Discarded => Ok(self.core.inserted(Inserted::Discarded(record.id()), steps)),
+            #[cfg(feature = "loom")]
             Placed::Full => Err(InsertError::ListFull),
+            // Outside loom a list has a slot for every index below `usize::MAX - 3`: `head` would
+            // have to be reserved 2^64 - 4 times first.
+            #[cfg(not(feature = "loom"))]
+            Placed::Full => unreachable!("a record list ran out of its 2^64 - 4 slots"),
         }
     }
 

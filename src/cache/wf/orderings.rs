@@ -5,7 +5,7 @@
 //!
 //! The trait is sealed: outside `loom` builds only the three sound policies exist.
 
-use crate::sync::Ordering::{self, AcqRel, Acquire, Relaxed, Release, SeqCst};
+use crate::sync::Ordering::{self, Acquire, Relaxed, Release, SeqCst};
 
 /// The atomic sites of the wait-free cache. The discriminant indexes [`Orderings::SITES`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -134,17 +134,6 @@ impl Orderings for ReadFence {
     const READ_FENCE: bool = true;
 }
 
-/// The strongest ordering that is still legal at a site: `AcqRel` for read-modify-writes, `Acquire`
-/// for loads, `Release` for stores, `Acquire` for a failed compare-and-swap. Used by the ordering
-/// study to name what "one step stronger" means.
-pub const fn strongest_plain(site: Site) -> Ordering {
-    match site {
-        Site::Reserve | Site::SegmentPublish | Site::ChildPublish => AcqRel,
-        Site::SlotPublish => Release,
-        _ => Acquire,
-    }
-}
-
 /// Listing 6 as printed: no publication flag; readers read every slot below the head. Loom only:
 /// it is the race the paper shipped, and loom must catch it.
 #[cfg(feature = "loom")]
@@ -192,6 +181,5 @@ mod tests {
         assert_eq!(ord::<Minimal>(Site::Reserve), Relaxed);
         assert_eq!(ord::<Minimal>(Site::SlotPublish), Release);
         assert_eq!(ord::<SeqCstEverywhere>(Site::HeadRead), SeqCst);
-        assert_eq!(strongest_plain(Site::Reserve), AcqRel);
     }
 }
