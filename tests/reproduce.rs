@@ -125,16 +125,6 @@ fn bad_input_is_refused_with_exit_code_2() {
         vec!["reproduce", "animation", "--spp", "0", "--out-dir", d],
         vec!["reproduce", "animation", "--frames", "0", "--out-dir", d],
         vec!["reproduce", "animation", "--scheme", "none", "--out-dir", d],
-        vec![
-            "reproduce",
-            "animation",
-            "--schemes",
-            "none",
-            "--width",
-            "8",
-            "--out-dir",
-            d,
-        ],
     ] {
         let out = wfic(&args);
         assert_eq!(out.status.code(), Some(2), "{args:?}");
