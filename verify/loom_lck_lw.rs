@@ -62,8 +62,8 @@ fn lw_frame_then_merge() {
         let mut global = root_record(0.0);
         global.position.z = 1.0;
         h.insert(global).unwrap();
-        let residue = h.finish();
-        lw.end_frame(vec![residue]);
+        drop(h);
+        lw.end_frame();
 
         let lw = Arc::new(lw);
         let worker = |lw: Arc<LocalWrite>, id: u32, x: f32| {
@@ -84,14 +84,14 @@ fn lw_frame_then_merge() {
                 2,
                 "worker {id} sees the global record and its own"
             );
-            h.finish()
+            // Dropping the handle hands its local records to the merge.
         };
         let l = lw.clone();
         let t = thread::spawn(move || worker(l, 1, 0.0));
-        let mine = worker(lw.clone(), 0, 0.2);
-        let theirs = t.join().unwrap();
+        worker(lw.clone(), 0, 0.2);
+        t.join().unwrap();
         let mut lw = Arc::try_unwrap(lw).unwrap_or_else(|_| panic!("workers joined"));
-        let report = lw.end_frame(vec![mine, theirs]);
+        let report = lw.end_frame();
         assert_eq!(report.workers.stored, 2);
         assert_eq!(
             lw.stats().records,

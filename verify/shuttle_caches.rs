@@ -95,25 +95,24 @@ fn workload<C: IrradianceCache + 'static>(cache: C, threads: u32, ops: u64, inse
                     "{scheme}: an insert took {steps} steps, bound {}",
                     2 * MAX_RECORD_DEPTH
                 );
-                (h.finish(), outcomes)
+                outcomes
             })
         })
         .collect();
-    let mut residues = Vec::new();
     let mut stored = HashSet::new();
     let mut discarded = 0;
     for w in workers {
-        let (residue, outcomes) = w.join().unwrap();
-        residues.push(residue);
+        let outcomes = w.join().unwrap();
         for o in outcomes {
             match o {
                 Inserted::Stored(id) => assert!(stored.insert(id), "{scheme}: id reused"),
                 Inserted::Discarded(_) => discarded += 1,
+                Inserted::NotCached(_) => unreachable!("{scheme} is a cache"),
             }
         }
     }
     let mut cache = Arc::try_unwrap(cache).unwrap_or_else(|_| panic!("workers joined"));
-    let report = cache.end_frame(residues);
+    let report = cache.end_frame();
     assert_eq!(report.workers.discarded, discarded);
     if scheme != "wf-discard" {
         assert_eq!(discarded, 0, "{scheme} lost a sample");
