@@ -36,6 +36,7 @@ use criterion::measurement::WallTime;
 use criterion::{criterion_group, criterion_main, BenchmarkGroup, Criterion, Throughput};
 use std::hint::black_box;
 use std::sync::Barrier;
+use std::thread;
 use std::time::{Duration, Instant};
 use wfic::cache::wf::{Minimal, ReadFence, SeqCstEverywhere};
 use wfic::cache::{
@@ -120,20 +121,28 @@ fn run_ops<H: CacheHandle>(h: &mut H, w: &Workload, ops: &[Op]) {
     }
 }
 
-/// One frame on two threads ([`wfic::cache::Frame::run`]): each worker takes its handle, waits
-/// on the barrier, runs its operations and drops the handle. Returns the time from the first
-/// worker's release to the last worker's end, plus closing the frame (LW's merge).
+/// One frame on two threads: each worker takes its handle from the frame, waits on the barrier,
+/// runs its operations and drops the handle. Returns the time from the first worker's release to
+/// the last worker's end, plus closing the frame (LW's merge). (std's scoped threads rather than
+/// `Frame::run`, so the bench also builds under the model checkers' features, where `run` does not
+/// exist.)
 fn frame_2t<C: IrradianceCache>(cache: &mut C, w: &Workload, counts: [usize; 2]) -> Duration {
     let barrier = Barrier::new(2);
     let frame = cache.frame();
-    let times = frame.run(2, |h, worker| {
-        let k = worker.index() as usize;
-        barrier.wait();
-        // Each worker reads the clock right after its own release: a third (timing) thread
-        // could be scheduled late on a two-core machine.
-        let start = Instant::now();
-        run_ops(h, w, &w.mixed[k][..counts[k]]);
-        (start, Instant::now())
+    let times = thread::scope(|s| {
+        let (frame, barrier) = (&frame, &barrier);
+        let workers = [0, 1].map(|k| {
+            s.spawn(move || {
+                let mut h = frame.handle();
+                barrier.wait();
+                // Each worker reads the clock right after its own release: a third (timing)
+                // thread could be scheduled late on a two-core machine.
+                let start = Instant::now();
+                run_ops(&mut h, w, &w.mixed[k][..counts[k]]);
+                (start, Instant::now())
+            })
+        });
+        workers.map(|t| t.join().expect("bench worker panicked"))
     });
     let start = times.iter().map(|t| t.0).min().unwrap();
     let end = times.iter().map(|t| t.1).max().unwrap();

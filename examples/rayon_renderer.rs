@@ -8,7 +8,7 @@
 #[cfg(not(checker))]
 mod app {
     use std::sync::atomic::{AtomicU32, Ordering};
-    use wfic::cache::{CasFailure, IrradianceCache, WaitFree};
+    use wfic::cache::{IrradianceCache, WaitFree};
     use wfic::render::integrator::{PixelIntegrator, SampleCounters};
     use wfic::render::{scenes, Camera, Image, RenderSettings};
 

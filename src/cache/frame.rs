@@ -32,6 +32,18 @@
 //! cache.frame(); // error: unused `Frame` that must be used
 //! ```
 //!
+//! and a handle that is made and never used is a warning too (an error here):
+//!
+//! ```compile_fail
+//! #![deny(unused_must_use)]
+//! use glam::Vec3;
+//! use wfic::cache::{CacheConfig, IrradianceCache, LocalWrite};
+//! let mut cache = LocalWrite::new(CacheConfig::new(Vec3::ZERO, Vec3::ONE, 0.3).unwrap());
+//! let frame = cache.frame();
+//! frame.handle(); // error: unused `LwHandle` that must be used
+//! frame.close();
+//! ```
+//!
 //! A handle cannot outlive its frame:
 //!
 //! ```compile_fail,E0505
