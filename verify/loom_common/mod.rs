@@ -111,7 +111,7 @@ pub fn insert_one<C: IrradianceCache>(cache: &C, worker: u32, r: Record) -> (Ins
     let mut h = cache.handle(WorkerId::new(worker));
     let outcome = h.insert(r).expect("model record refused");
     let stats = *h.stats();
-    drop(h.finish());
+    drop(h);
     (outcome, stats.max_insert_steps, stats.cas_failures)
 }
 
@@ -120,7 +120,7 @@ pub fn valid_at<C: IrradianceCache>(cache: &C, worker: u32, p: Vec3) -> Vec<Reco
     let mut h = cache.handle(WorkerId::new(worker));
     let mut out = Vec::new();
     h.valid_records(p, Vec3::Z, &mut out);
-    drop(h.finish());
+    drop(h);
     out
 }
 
