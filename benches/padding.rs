@@ -23,6 +23,13 @@
 //!
 //! `PADDING_REVERSE=1` measures the variants of each group in the reverse order, so that a
 //! position effect (frequency, heap state) can be told from a layout effect.
+//!
+//! `PADDING_ROUNDS=n` skips criterion and interleaves instead: for each group, `n` rounds, each
+//! round one short block of every variant (in an order that rotates and reverses from round to
+//! round), so slow drifts of the machine (neighbours, frequency) hit every variant alike. It prints
+//! each variant's median time per operation and, per round, its ratio to `minimal` of the same
+//! round: the median ratio and its quartiles. (On 2026-11-30 the criterion runs of the same
+//! code differed by ±30% between positions, even on an idle machine.)
 
 mod common;
 
@@ -324,10 +331,191 @@ fn print_ratios() {
     }
 }
 
+/// One block of operations of a variant: returns the timed part and the operation count.
+type Block<'a> = Box<dyn FnMut() -> (Duration, u64) + 'a>;
+
+fn lookup_block<O: Orderings>() -> Block<'static> {
+    let w = workload();
+    let mut cache = prefilled(make::<O>(), &w.prefill);
+    let mut i = 0;
+    Box::new(move || {
+        const OPS: usize = 16_384;
+        let frame = cache.frame();
+        let mut h = frame.handle();
+        let start = Instant::now();
+        for _ in 0..OPS {
+            let (p, n) = w.queries[i];
+            black_box(h.lookup(black_box(p), black_box(n)));
+            i = (i + 1) % w.queries.len();
+        }
+        let elapsed = start.elapsed();
+        drop(h);
+        frame.close();
+        (elapsed, OPS as u64)
+    })
+}
+
+fn insert_block<O: Orderings>() -> Block<'static> {
+    let w = workload();
+    Box::new(move || {
+        const BATCHES: usize = 8;
+        let mut total = Duration::ZERO;
+        for _ in 0..BATCHES {
+            let mut cache = prefilled(make::<O>(), &w.prefill);
+            let frame = cache.frame();
+            let mut h = frame.handle();
+            let start = Instant::now();
+            for r in &w.fresh[..INSERT_BATCH] {
+                let _ = black_box(h.insert(black_box(*r)));
+            }
+            total += start.elapsed();
+        }
+        (total, (BATCHES * INSERT_BATCH) as u64)
+    })
+}
+
+fn mixed_block<O: Orderings>() -> Block<'static> {
+    let w = workload();
+    Box::new(move || {
+        const FRAMES: usize = 3;
+        let mut total = Duration::ZERO;
+        for _ in 0..FRAMES {
+            let mut cache = prefilled(make::<O>(), &w.prefill);
+            let barrier = Barrier::new(2);
+            let frame = cache.frame();
+            let times = frame.run(2, |h, worker| {
+                let k = worker.index() as usize;
+                barrier.wait();
+                let start = Instant::now();
+                for op in &w.mixed[k] {
+                    match *op {
+                        Op::Lookup(i) => {
+                            let (p, n) = w.queries[i as usize];
+                            black_box(h.lookup(p, n));
+                        }
+                        Op::Insert(i) => {
+                            let _ = black_box(h.insert(w.fresh[i as usize]));
+                        }
+                    }
+                }
+                (start, Instant::now())
+            });
+            let start = times.iter().map(|t| t.0).min().unwrap();
+            let end = times.iter().map(|t| t.1).max().unwrap();
+            let close = Instant::now();
+            frame.close();
+            total += (end - start) + close.elapsed();
+        }
+        let ops = w.mixed[0].len() + w.mixed[1].len();
+        (total, (FRAMES * ops) as u64)
+    })
+}
+
+fn insert_2t_block<O: Orderings>() -> Block<'static> {
+    let w = workload();
+    let batch: &'static [Record] = &w.fresh_2t[..INSERT_BATCH_2T];
+    let pair = Pair::<O>::new();
+    Box::new(move || {
+        const FRAMES: usize = 2;
+        let mut total = Duration::ZERO;
+        for _ in 0..FRAMES {
+            let mut cache = Arc::new(prefilled(make::<O>(), &w.prefill));
+            let half = batch.len() / 2;
+            let halves = [&batch[..half], &batch[half..]];
+            let work: Work<O> = Arc::new(move |k, h| {
+                for r in halves[k] {
+                    let _ = black_box(h.insert(black_box(*r)));
+                }
+            });
+            total += pair.frame(&mut cache, &work);
+        }
+        (total, (FRAMES * batch.len()) as u64)
+    })
+}
+
+const INTERLEAVED: [&str; 5] = ["minimal", "padded", "spaced", "minimal-copy", "padded-copy"];
+
+macro_rules! blocks {
+    ($f:ident) => {
+        vec![
+            $f::<Minimal>(),
+            $f::<MinimalPadded>(),
+            $f::<MinimalSpaced>(),
+            $f::<MinimalControl>(),
+            $f::<MinimalPaddedControl>(),
+        ]
+    };
+}
+
+/// The `q`-quantile of sorted `v` (nearest rank).
+fn quantile(v: &[f64], q: f64) -> f64 {
+    v[((v.len() - 1) as f64 * q).round() as usize]
+}
+
+fn interleaved(rounds: usize) {
+    let groups: [(&str, fn() -> Vec<Block<'static>>); 4] = [
+        ("lookup-1t", || blocks!(lookup_block)),
+        ("insert-1t", || blocks!(insert_block)),
+        ("mixed-2t", || blocks!(mixed_block)),
+        ("insert-2t", || blocks!(insert_2t_block)),
+    ];
+    println!("interleaved: {rounds} rounds per group, one block of every variant per round");
+    for (name, make_blocks) in groups {
+        let mut blocks = make_blocks();
+        // One untimed warm-up block each.
+        for b in &mut blocks {
+            b();
+        }
+        let n = blocks.len();
+        let mut ns = vec![Vec::with_capacity(rounds); n];
+        for r in 0..rounds {
+            let mut order: Vec<usize> = (0..n).map(|k| (k + r) % n).collect();
+            if r % 2 == 1 {
+                order.reverse();
+            }
+            let mut this = vec![0.0; n];
+            for k in order {
+                let (t, ops) = blocks[k]();
+                this[k] = t.as_nanos() as f64 / ops as f64;
+            }
+            for k in 0..n {
+                ns[k].push(this[k]);
+            }
+        }
+        println!("padding/{name}: median ns/op [q1, q3]; per-round ratio to minimal: median [q1, q3] (min..max)");
+        for k in 0..n {
+            let mut t = ns[k].clone();
+            t.sort_by(f64::total_cmp);
+            let mut ratios: Vec<f64> = (0..rounds).map(|r| ns[k][r] / ns[0][r]).collect();
+            ratios.sort_by(f64::total_cmp);
+            println!(
+                "  {:<13} {:>8.1} [{:>7.1}, {:>7.1}]   ratio {:.3} [{:.3}, {:.3}] ({:.3}..{:.3})",
+                INTERLEAVED[k],
+                quantile(&t, 0.5),
+                quantile(&t, 0.25),
+                quantile(&t, 0.75),
+                quantile(&ratios, 0.5),
+                quantile(&ratios, 0.25),
+                quantile(&ratios, 0.75),
+                ratios[0],
+                ratios[rounds - 1],
+            );
+        }
+    }
+}
+
 fn main() {
     report_layout::<Minimal>("minimal");
     report_layout::<MinimalPadded>("padded");
     report_layout::<MinimalSpaced>("spaced");
+    if let Some(rounds) = std::env::var("PADDING_ROUNDS")
+        .ok()
+        .and_then(|v| v.parse::<usize>().ok())
+        .filter(|&r| r > 0)
+    {
+        interleaved(rounds);
+        return;
+    }
     let mut c = Criterion::default().configure_from_args();
     padding(&mut c);
     c.final_summary();
