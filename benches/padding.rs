@@ -247,7 +247,7 @@ fn padding(c: &mut Criterion) {
 /// `insert-2t` frame.
 fn report_layout<O: Orderings>(name: &str) {
     let w = workload();
-    let (size, align) = WaitFree::<O>::node_layout();
+    let (size, align, [children, segments, head]) = WaitFree::<O>::node_layout();
     let mut cache = prefilled(make::<O>(), &w.prefill);
     let prefill_nodes = cache.stats().nodes;
     let cache = {
@@ -264,7 +264,8 @@ fn report_layout<O: Orderings>(name: &str) {
     let mut cache = cache;
     let after_nodes = cache.stats().nodes;
     eprintln!(
-        "{name:<8} node {size} B (align {align}); pre-filled cache {prefill_nodes} nodes = {} KiB \
+        "{name:<8} node {size} B (align {align}; children at {children}, segment table at \
+         {segments}, head at {head}); pre-filled cache {prefill_nodes} nodes = {} KiB \
          of nodes; after +{} inserts {after_nodes} nodes = {} KiB",
         prefill_nodes * size / 1024,
         w.fresh_2t.len(),

@@ -162,6 +162,16 @@ impl<O: Orderings> RecordList<O> {
         }
     }
 
+    /// Offset in bytes of the head inside the list (the padding experiment).
+    pub(crate) const fn head_offset() -> usize {
+        std::mem::offset_of!(Self, head)
+    }
+
+    /// Offset in bytes of the segment table inside the list (the padding experiment).
+    pub(crate) const fn segments_offset() -> usize {
+        std::mem::offset_of!(Self, segments)
+    }
+
     /// Appends `record`; returns the index of its slot.
     #[inline]
     pub fn push(&self, record: Record) -> Result<usize, ListFull> {

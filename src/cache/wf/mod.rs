@@ -155,12 +155,20 @@ impl<O: Orderings> WaitFree<O> {
         }
     }
 
-    /// Size and alignment in bytes of one tree node under this policy (the padding experiment).
+    /// Size and alignment in bytes of one tree node under this policy, and the offsets of its
+    /// child pointers, of its list's segment table and of its list's head (the padding
+    /// experiment).
     #[doc(hidden)]
-    pub const fn node_layout() -> (usize, usize) {
+    pub const fn node_layout() -> (usize, usize, [usize; 3]) {
+        let records = std::mem::offset_of!(Node<O>, records);
         (
             std::mem::size_of::<Node<O>>(),
             std::mem::align_of::<Node<O>>(),
+            [
+                std::mem::offset_of!(Node<O>, children),
+                records + RecordList::<O>::segments_offset(),
+                records + RecordList::<O>::head_offset(),
+            ],
         )
     }
 
