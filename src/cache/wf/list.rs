@@ -22,65 +22,9 @@
 use super::orderings::{ord, Orderings, Site};
 use crate::ic::Record;
 use crate::sync::{AtomicBool, AtomicPtr, AtomicUsize, Ordering, UnsafeCell};
-use crossbeam_utils::CachePadded;
 use std::marker::PhantomData;
 use std::mem::MaybeUninit;
 use std::ptr;
-
-/// How a list lays out its head (the padding experiment, `benches/padding.rs`): the plain atomic,
-/// the atomic in `CachePadded` (aligned to 128 bytes on x86_64), or the atomic between two
-/// 64-byte gaps (its own cache line, without raising the node's alignment).
-#[doc(hidden)]
-pub trait HeadCell: Send + Sync + 'static {
-    /// A head holding `value`.
-    fn new(value: usize) -> Self;
-    /// The atomic itself.
-    fn cell(&self) -> &AtomicUsize;
-}
-
-impl HeadCell for AtomicUsize {
-    fn new(value: usize) -> Self {
-        AtomicUsize::new(value)
-    }
-    #[inline(always)]
-    fn cell(&self) -> &AtomicUsize {
-        self
-    }
-}
-
-impl HeadCell for CachePadded<AtomicUsize> {
-    fn new(value: usize) -> Self {
-        CachePadded::new(AtomicUsize::new(value))
-    }
-    #[inline(always)]
-    fn cell(&self) -> &AtomicUsize {
-        self
-    }
-}
-
-/// The head between two 64-byte gaps: alone on its 64-byte line wherever the node starts, with
-/// the node's alignment unchanged (8), so nodes still come from plain `malloc`.
-#[doc(hidden)]
-#[repr(C)]
-pub struct Spaced {
-    _before: [u8; 64],
-    head: AtomicUsize,
-    _after: [u8; 64],
-}
-
-impl HeadCell for Spaced {
-    fn new(value: usize) -> Self {
-        Self {
-            _before: [0; 64],
-            head: AtomicUsize::new(value),
-            _after: [0; 64],
-        }
-    }
-    #[inline(always)]
-    fn cell(&self) -> &AtomicUsize {
-        &self.head
-    }
-}
 
 /// log2 of the first segment's size (4 slots).
 #[cfg(not(feature = "loom"))]
@@ -137,7 +81,7 @@ pub struct ListFull;
 /// An append-only, wait-free list of records.
 pub struct RecordList<O: Orderings> {
     /// Slots reserved so far (written or not).
-    head: O::Head,
+    head: AtomicUsize,
     /// Segment `s`: null, or the first of `segment_len(s)` slots, allocated as a boxed slice.
     segments: [AtomicPtr<Slot>; SEGMENTS],
     /// The list owns its segments (and, through them, `UnsafeCell`s: not auto-`Sync`).
@@ -156,20 +100,10 @@ impl<O: Orderings> RecordList<O> {
     /// An empty list (no segment allocated).
     pub fn new() -> Self {
         Self {
-            head: O::Head::new(0),
+            head: AtomicUsize::new(0),
             segments: std::array::from_fn(|_| AtomicPtr::new(ptr::null_mut())),
             _owns: PhantomData,
         }
-    }
-
-    /// Offset in bytes of the head inside the list (the padding experiment).
-    pub(crate) const fn head_offset() -> usize {
-        std::mem::offset_of!(Self, head)
-    }
-
-    /// Offset in bytes of the segment table inside the list (the padding experiment).
-    pub(crate) const fn segments_offset() -> usize {
-        std::mem::offset_of!(Self, segments)
     }
 
     /// Appends `record`; returns the index of its slot.
@@ -177,7 +111,7 @@ impl<O: Orderings> RecordList<O> {
     pub fn push(&self, record: Record) -> Result<usize, ListFull> {
         // Relaxed (Reserve): the read-modify-write alone makes indices unique; nothing is published
         // through the head — readers learn a slot is written from its own flag.
-        let index = self.head.cell().fetch_add(1, ord::<O>(Site::Reserve));
+        let index = self.head.fetch_add(1, ord::<O>(Site::Reserve));
         let (segment, offset) = locate(index).ok_or(ListFull)?;
         let base = self.segment(segment);
         // SAFETY: `base` is a live segment of `segment_len(segment)` slots and `offset` is below
@@ -242,7 +176,7 @@ impl<O: Orderings> RecordList<O> {
     pub fn for_each(&self, f: &mut impl FnMut(&Record)) {
         // Relaxed (HeadRead): the head only bounds the scan. A stale value merely skips records
         // whose insert is concurrent with this scan; every slot read is guarded by its own flag.
-        let reserved = self.head.cell().load(ord::<O>(Site::HeadRead));
+        let reserved = self.head.load(ord::<O>(Site::HeadRead));
         if reserved == 0 {
             return;
         }

@@ -43,14 +43,10 @@ use list::RecordList;
 use orderings::{ord, Site};
 use std::ptr;
 
-#[doc(hidden)]
-pub use list::{HeadCell, Spaced};
 /// The record list itself, for the loom models that exercise it alone.
 #[cfg(feature = "loom")]
 pub use list::{ListFull, RecordList};
 pub use orderings::{Minimal, MinimalControl, Orderings, ReadFence, SeqCstEverywhere};
-#[doc(hidden)]
-pub use orderings::{MinimalPadded, MinimalPaddedControl, MinimalSpaced};
 
 /// What an insert does when its compare-and-swap on a missing child loses the race.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
@@ -153,23 +149,6 @@ impl<O: Orderings> WaitFree<O> {
             ledger: Ledger::new(),
             stats: CacheStats::default(),
         }
-    }
-
-    /// Size and alignment in bytes of one tree node under this policy, and the offsets of its
-    /// child pointers, of its list's segment table and of its list's head (the padding
-    /// experiment).
-    #[doc(hidden)]
-    pub const fn node_layout() -> (usize, usize, [usize; 3]) {
-        let records = std::mem::offset_of!(Node<O>, records);
-        (
-            std::mem::size_of::<Node<O>>(),
-            std::mem::align_of::<Node<O>>(),
-            [
-                std::mem::offset_of!(Node<O>, children),
-                records + RecordList::<O>::segments_offset(),
-                records + RecordList::<O>::head_offset(),
-            ],
-        )
     }
 
     /// The compare-and-swap failure policy.

@@ -5,10 +5,7 @@
 //!
 //! The trait is sealed: outside `loom` builds only the three sound policies exist.
 
-use super::list::{HeadCell, Spaced};
-use crate::sync::AtomicUsize;
 use crate::sync::Ordering::{self, AcqRel, Acquire, Relaxed, Release, SeqCst};
-use crossbeam_utils::CachePadded;
 
 /// The atomic sites of the wait-free cache. The discriminant indexes [`Orderings::SITES`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -69,10 +66,6 @@ pub trait Orderings: sealed::Sealed + Send + Sync + 'static {
     /// Whether writers publish slots and readers check the flag. Only the loom-only
     /// `PaperLiteral` policy clears it (readers then read every reserved slot, as Listing 6 does).
     const PUBLISH_SLOTS: bool = true;
-    /// How a record list lays out its head (the padding experiment; `AtomicUsize` everywhere but
-    /// in the `MinimalPadded*` and `MinimalSpaced` policies).
-    #[doc(hidden)]
-    type Head: HeadCell;
 }
 
 /// The ordering of `site` under policy `O` (a constant after inlining).
@@ -102,25 +95,6 @@ pub struct ReadFence;
 #[derive(Clone, Copy, Debug, Default)]
 pub struct MinimalControl;
 
-/// Padding experiment: [`Minimal`] with each list's head in `CachePadded` (`benches/padding.rs`).
-#[doc(hidden)]
-#[derive(Clone, Copy, Debug, Default)]
-pub struct MinimalPadded;
-
-/// Padding experiment: [`MinimalPadded`] under another type (its code-placement control).
-#[doc(hidden)]
-#[derive(Clone, Copy, Debug, Default)]
-pub struct MinimalPaddedControl;
-
-/// Padding experiment: [`Minimal`] with each list's head between two 64-byte gaps (own line, no
-/// extra alignment).
-#[doc(hidden)]
-#[derive(Clone, Copy, Debug, Default)]
-pub struct MinimalSpaced;
-
-impl sealed::Sealed for MinimalPadded {}
-impl sealed::Sealed for MinimalPaddedControl {}
-impl sealed::Sealed for MinimalSpaced {}
 impl sealed::Sealed for Minimal {}
 impl sealed::Sealed for MinimalControl {}
 impl sealed::Sealed for SeqCstEverywhere {}
@@ -141,43 +115,21 @@ const MINIMAL: [Ordering; Site::COUNT] = [
 
 impl Orderings for Minimal {
     const NAME: &'static str = "minimal";
-    type Head = AtomicUsize;
     const SITES: [Ordering; Site::COUNT] = MINIMAL;
 }
 
 impl Orderings for MinimalControl {
     const NAME: &'static str = "minimal-control";
-    type Head = AtomicUsize;
     const SITES: [Ordering; Site::COUNT] = MINIMAL;
-}
-
-impl Orderings for MinimalPadded {
-    const NAME: &'static str = "minimal-padded";
-    const SITES: [Ordering; Site::COUNT] = MINIMAL;
-    type Head = CachePadded<AtomicUsize>;
-}
-
-impl Orderings for MinimalPaddedControl {
-    const NAME: &'static str = "minimal-padded-control";
-    const SITES: [Ordering; Site::COUNT] = MINIMAL;
-    type Head = CachePadded<AtomicUsize>;
-}
-
-impl Orderings for MinimalSpaced {
-    const NAME: &'static str = "minimal-spaced";
-    const SITES: [Ordering; Site::COUNT] = MINIMAL;
-    type Head = Spaced;
 }
 
 impl Orderings for SeqCstEverywhere {
     const NAME: &'static str = "seqcst";
-    type Head = AtomicUsize;
     const SITES: [Ordering; Site::COUNT] = [SeqCst; Site::COUNT];
 }
 
 impl Orderings for ReadFence {
     const NAME: &'static str = "read-fence";
-    type Head = AtomicUsize;
     const SITES: [Ordering; Site::COUNT] = MINIMAL;
     const READ_FENCE: bool = true;
 }
@@ -205,7 +157,6 @@ impl sealed::Sealed for PaperLiteral {}
 #[cfg(feature = "loom")]
 impl Orderings for PaperLiteral {
     const NAME: &'static str = "paper-literal";
-    type Head = AtomicUsize;
     const SITES: [Ordering; Site::COUNT] = MINIMAL;
     const PUBLISH_SLOTS: bool = false;
 }
@@ -222,7 +173,6 @@ impl<const SITE: usize> sealed::Sealed for Weakened<SITE> {}
 #[cfg(feature = "loom")]
 impl<const SITE: usize> Orderings for Weakened<SITE> {
     const NAME: &'static str = "weakened";
-    type Head = AtomicUsize;
     const SITES: [Ordering; Site::COUNT] = {
         let mut sites = MINIMAL;
         sites[SITE] = Relaxed;
