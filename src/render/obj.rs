@@ -585,18 +585,23 @@ fn read_obj(file: &Path, warnings: &mut Vec<ObjWarning>) -> Result<SceneBuilder,
                 let name = words.collect::<Vec<_>>().join(" ");
                 current = match ids.get(&name) {
                     Some(&id) => id,
-                    None => {
-                        let m = *library.get(&name).ok_or_else(|| {
-                            err(
-                                file,
-                                Some(line),
-                                format!("material `{name}` is not defined by any mtllib"),
-                            )
-                        })?;
-                        let id = b.material(m);
-                        ids.insert(name, id);
-                        id
-                    }
+                    None => match library.get(&name) {
+                        Some(&m) => {
+                            let id = b.material(m);
+                            ids.insert(name, id);
+                            id
+                        }
+                        // Real exports name materials no MTL defines (`usemtl (null)`, a
+                        // library left behind): render those faces grey rather than refuse.
+                        None => {
+                            skipped.note(
+                                "usemtl",
+                                line,
+                                "names a material no mtllib defines: its faces use the default grey",
+                            );
+                            default
+                        }
+                    },
                 };
             }
             "vt" | "vn" | "g" | "o" | "s" => {}
@@ -712,6 +717,26 @@ mod tests {
         let (mut out, mut warnings) = (HashMap::new(), Vec::new());
         read_mtl(&dir.join(name), &mut out, &mut warnings)?;
         Ok((out, warnings))
+    }
+
+    #[test]
+    fn an_undefined_material_is_a_warning_and_renders_grey() {
+        let dir = folder("null-material");
+        let obj = format!("usemtl (null)\n{SQUARE}usemtl ghost\nf 1 2 3\n");
+        std::fs::write(dir.join("null.obj"), obj).unwrap();
+        let (scene, warnings) = load_with_warnings(&dir.join("null.obj")).unwrap();
+        assert_eq!(scene.triangle_count(), 5, "every face is kept");
+        let usemtl: Vec<&ObjWarning> = warnings
+            .iter()
+            .filter(|w| w.statement == "usemtl")
+            .collect();
+        assert_eq!(usemtl.len(), 1, "one warning for the kind: {warnings:?}");
+        assert_eq!(usemtl[0].line, 1);
+        assert!(
+            usemtl[0].message.contains("2 lines"),
+            "{}",
+            usemtl[0].message
+        );
     }
 
     #[test]
@@ -1034,11 +1059,6 @@ mod tests {
             ),
             ("parts.obj", "v 0 0 0\nf 1/1/1/1 1 1\n", "not a face corner"),
             ("face.obj", "v 0 0 0\nf 1 1\n", "at least 3 vertices"),
-            (
-                "use.obj",
-                "v 0 0 0\nusemtl ghost\n",
-                "`ghost` is not defined",
-            ),
         ] {
             let e = load_err(&dir, name, text);
             assert!(
