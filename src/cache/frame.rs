@@ -71,7 +71,7 @@
 //! drop(handle);
 //! ```
 
-use super::{FrameReport, IrradianceCache, WorkerStats};
+use super::{CacheStats, FrameReport, IrradianceCache, WorkerStats};
 use crate::ic::WorkerId;
 use crate::sync::unchecked::{self, AtomicU32, AtomicU64};
 use crate::sync::unpoison;
@@ -159,6 +159,18 @@ impl<X: Local> Ledger<X> {
         frame
     }
 
+    /// Closes the open frame for an `end_frame`: returns what its handles left and the frame's
+    /// report (their counters summed), and adds the frame to `stats` (totals, frame count).
+    /// A scheme with work of its own at the barrier (LW's merge) adds it to the report.
+    pub fn close_frame(&mut self, stats: &mut CacheStats) -> (Vec<Deposit<X>>, FrameReport) {
+        let deposits = self.close();
+        let mut report = FrameReport::default();
+        deposits.iter().for_each(|d| report.workers += &d.stats);
+        stats.totals += &report.workers;
+        stats.frames += 1;
+        (deposits, report)
+    }
+
     /// Keeps what a dropped handle left, for `end_frame`.
     pub fn deposit(&self, deposit: Deposit<X>) {
         unpoison(self.state.lock()).deposits.push(deposit);
@@ -197,13 +209,6 @@ impl<X: Local> Ledger<X> {
         }
         deposits
     }
-}
-
-/// Sums the counters of a frame's deposits.
-pub(crate) fn sum_stats<X>(deposits: &[Deposit<X>]) -> WorkerStats {
-    let mut sum = WorkerStats::default();
-    deposits.iter().for_each(|d| sum += &d.stats);
-    sum
 }
 
 /// One frame of a cache: hands out handles with distinct worker ids, runs workers, closes.

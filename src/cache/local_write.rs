@@ -26,7 +26,7 @@
 //! would answer from one of the two caches. Here one lookup averages the valid records of both,
 //! which is exactly what a single merged cache would answer.
 
-use super::frame::{sum_stats, Ledger};
+use super::frame::Ledger;
 use super::{
     collect_valid, CacheConfig, CacheHandle, CacheStats, FrameReport, HandleCore, Inserted,
     IrradianceCache, Octree, WorkerStats,
@@ -82,8 +82,7 @@ impl IrradianceCache for LocalWrite {
     }
 
     fn end_frame(&mut self) -> FrameReport {
-        let deposits = self.ledger.close();
-        let mut report = FrameReport::default();
+        let (deposits, mut report) = self.ledger.close_frame(&mut self.stats);
         let start = Instant::now();
         for deposit in &deposits {
             for record in deposit.local.records() {
@@ -92,10 +91,7 @@ impl IrradianceCache for LocalWrite {
             }
         }
         report.merge = start.elapsed();
-        report.workers = sum_stats(&deposits);
-        self.stats.totals += &report.workers;
         self.stats.merge += report.merge;
-        self.stats.frames += 1;
         report
     }
 

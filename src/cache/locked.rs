@@ -6,7 +6,7 @@
 //! the lock; only when that fails is the wait timed, so an uncontended acquisition costs no clock
 //! reads. The time spent waiting is summed over workers (the paper's LCK overhead in Table 1).
 
-use super::frame::{sum_stats, Ledger};
+use super::frame::Ledger;
 use super::{
     collect_valid, CacheConfig, CacheHandle, CacheStats, FrameReport, HandleCore, Inserted,
     IrradianceCache, Octree, WorkerStats,
@@ -182,14 +182,7 @@ impl<F: LockFlavour> IrradianceCache for Locked<F> {
     }
 
     fn end_frame(&mut self) -> FrameReport {
-        let deposits = self.ledger.close();
-        let report = FrameReport {
-            workers: sum_stats(&deposits),
-            ..FrameReport::default()
-        };
-        self.stats.totals += &report.workers;
-        self.stats.frames += 1;
-        report
+        self.ledger.close_frame(&mut self.stats).1
     }
 
     fn snapshot(&mut self) -> Vec<Record> {

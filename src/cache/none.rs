@@ -3,7 +3,7 @@
 //! estimate, insert). Rendered with it, a frame is the reference the cached schemes are measured
 //! against.
 
-use super::frame::{sum_stats, Ledger};
+use super::frame::Ledger;
 use super::{
     CacheConfig, CacheHandle, CacheStats, FrameReport, HandleCore, Inserted, IrradianceCache,
     WorkerStats,
@@ -59,14 +59,7 @@ impl IrradianceCache for NoCache {
     }
 
     fn end_frame(&mut self) -> FrameReport {
-        let deposits = self.ledger.close();
-        let report = FrameReport {
-            workers: sum_stats(&deposits),
-            ..FrameReport::default()
-        };
-        self.stats.totals += &report.workers;
-        self.stats.frames += 1;
-        report
+        self.ledger.close_frame(&mut self.stats).1
     }
 
     fn snapshot(&mut self) -> Vec<Record> {

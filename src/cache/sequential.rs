@@ -10,7 +10,7 @@
 //! octree's lock for the whole frame, so lookups and inserts pay nothing for it; a second worker
 //! asking for a handle waits until the first one is finished. TRA is meant to run on one thread.
 
-use super::frame::{sum_stats, Ledger, Local};
+use super::frame::{Ledger, Local};
 use super::octree::{Cell, Octant};
 use super::{
     collect_valid, CacheConfig, CacheHandle, CacheStats, FrameReport, HandleCore, Inserted,
@@ -210,14 +210,7 @@ impl IrradianceCache for Sequential {
     }
 
     fn end_frame(&mut self) -> FrameReport {
-        let deposits = self.ledger.close();
-        let report = FrameReport {
-            workers: sum_stats(&deposits),
-            ..FrameReport::default()
-        };
-        self.stats.totals += &report.workers;
-        self.stats.frames += 1;
-        report
+        self.ledger.close_frame(&mut self.stats).1
     }
 
     fn snapshot(&mut self) -> Vec<Record> {

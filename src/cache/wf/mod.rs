@@ -29,7 +29,7 @@
 mod list;
 pub mod orderings;
 
-use super::frame::{sum_stats, Ledger};
+use super::frame::Ledger;
 use super::octree::{Cell, Octant, MAX_DEPTH};
 use super::{
     collect_valid, CacheConfig, CacheHandle, CacheStats, FrameReport, HandleCore, Inserted,
@@ -344,14 +344,7 @@ impl<O: Orderings> IrradianceCache for WaitFree<O> {
     }
 
     fn end_frame(&mut self) -> FrameReport {
-        let deposits = self.ledger.close();
-        let report = FrameReport {
-            workers: sum_stats(&deposits),
-            ..FrameReport::default()
-        };
-        self.stats.totals += &report.workers;
-        self.stats.frames += 1;
-        report
+        self.ledger.close_frame(&mut self.stats).1
     }
 
     fn snapshot(&mut self) -> Vec<Record> {
