@@ -2,7 +2,7 @@
 //! Frame 0 starts from an empty cache (the still-image case); later frames mostly interpolate.
 
 use super::plot::{Figure, Line, Panel};
-use super::{colour, heading, orbit_with_scheme, write_file, Machine};
+use super::{orbit_with_scheme, write_file, Machine};
 use crate::cache::Scheme;
 use crate::render::{scenes, FrameStats, RenderSettings};
 use std::fmt::Write as _;
@@ -193,7 +193,7 @@ impl Animation {
             let _ = writeln!(
                 md,
                 "| {} | {}{star} | {:.3} | {:.4} | {:.2} | {} | {} | {} | {:.3} | {:.4} | {} |",
-                heading(o.scheme),
+                o.scheme.heading(),
                 o.threads,
                 o.frames.first().map_or(f64::NAN, |f| f.seconds),
                 mean,
@@ -229,8 +229,8 @@ impl Animation {
             } else {
                 ""
             };
-            let label = format!("{} {}T{star}", heading(o.scheme), o.threads);
-            legend.push((label.clone(), colour(o.scheme)));
+            let label = format!("{} {}T{star}", o.scheme.heading(), o.threads);
+            legend.push((label.clone(), o.scheme.colour()));
             for f in o.frames.iter().skip(1) {
                 tmax = tmax.max(f.seconds);
                 smax = smax.max(f.ic_samples as f64);
@@ -238,7 +238,7 @@ impl Animation {
             if let Some(f0) = o.frames.first() {
                 first.push(format!(
                     "{} {:.2}S/{}",
-                    heading(o.scheme),
+                    o.scheme.heading(),
                     f0.seconds,
                     f0.ic_samples
                 ));
@@ -252,13 +252,13 @@ impl Animation {
             };
             time_lines.push(Line {
                 label: label.clone(),
-                colour: colour(o.scheme),
+                colour: o.scheme.colour(),
                 points: pts(&|f| f.seconds),
                 markers: false,
             });
             sample_lines.push(Line {
                 label,
-                colour: colour(o.scheme),
+                colour: o.scheme.colour(),
                 points: pts(&|f| f.ic_samples as f64),
                 markers: false,
             });

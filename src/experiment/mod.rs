@@ -117,16 +117,6 @@ pub fn orbit_with_scheme(
     Ok(scheme.build(config, job))
 }
 
-/// The column heading of a scheme (as the paper writes them, plus ours): [`Scheme::heading`].
-pub fn heading(scheme: Scheme) -> &'static str {
-    scheme.heading()
-}
-
-/// The plot colour of a scheme: [`Scheme::colour`], the scheme's own.
-pub fn colour(scheme: Scheme) -> plot::Colour {
-    scheme.colour()
-}
-
 /// The median of `values` (the mean of the middle two for an even count); `NaN` when empty.
 pub fn median(values: &[f64]) -> f64 {
     let mut v: Vec<f64> = values.iter().copied().filter(|x| !x.is_nan()).collect();

@@ -14,7 +14,7 @@
 //! order statistics ([`paired_ratio`]).
 
 use super::plot::{Bar, Figure, Line, Panel};
-use super::{colour, heading, median, paper, write_file, Machine};
+use super::{median, paper, write_file, Machine};
 use crate::cache::Scheme;
 use crate::render::render_with_scheme;
 use crate::render::{scenes, FrameStats, RenderSettings};
@@ -416,7 +416,7 @@ impl Table1 {
                     Verdict::No
                 };
                 push(
-                    &format!("WF no slower than {} at 2 threads", heading(rival)),
+                    &format!("WF no slower than {} at 2 threads", rival.heading()),
                     verdict,
                     format!(
                         "WF/{rv} per round: median {:.4} ({:.0}% interval {:.4}–{:.4}, {} rounds); \
@@ -428,7 +428,7 @@ impl Table1 {
                         p.n,
                         wf.time(),
                         r.time(),
-                        rv = heading(rival),
+                        rv = rival.heading(),
                     ),
                 );
             }
@@ -497,7 +497,7 @@ impl Table1 {
                 } else {
                     ""
                 };
-                let _ = write!(head, " {} {t}{star} |", heading(scheme));
+                let _ = write!(head, " {} {t}{star} |", scheme.heading());
                 rule.push_str("---:|");
             }
             let _ = writeln!(md, "{head}\n{rule}");
@@ -550,7 +550,7 @@ impl Table1 {
                         let _ = writeln!(
                             md,
                             "| {} {}{star} | {:.3} | {:.3} | {} | {} | {} | {} | {:.3} | {:.3} |",
-                            heading(m.scheme),
+                            m.scheme.heading(),
                             m.threads,
                             p.time,
                             m.time(),
@@ -654,11 +654,11 @@ impl Table1 {
             let tra = self.get(scene, Scheme::Tra, 1);
             let mut lines = Vec::new();
             let mut bars = Vec::new();
-            let mut legend = vec![("TRA".to_owned(), colour(Scheme::Tra))];
+            let mut legend = vec![("TRA".to_owned(), Scheme::Tra.colour())];
             if let Some(tra) = tra {
                 lines.push(Line {
                     label: "TRA".into(),
-                    colour: colour(Scheme::Tra),
+                    colour: Scheme::Tra.colour(),
                     points: vec![(0.0, tra.time())],
                     markers: true,
                 });
@@ -666,11 +666,11 @@ impl Table1 {
                     x: 0.0,
                     width: bar_w,
                     value: 1.0,
-                    colour: colour(Scheme::Tra),
+                    colour: Scheme::Tra.colour(),
                 });
             }
             for (k, &scheme) in schemes.iter().enumerate() {
-                legend.push((heading(scheme).to_owned(), colour(scheme)));
+                legend.push((scheme.heading().to_owned(), scheme.colour()));
                 let mut points = Vec::new();
                 for (i, &t) in threads.iter().enumerate().skip(1) {
                     if let Some(m) = self.get(scene, scheme, t) {
@@ -680,13 +680,13 @@ impl Table1 {
                             x: xs[i] + off,
                             width: bar_w * 0.9,
                             value: self.speedup(m),
-                            colour: colour(scheme),
+                            colour: scheme.colour(),
                         });
                     }
                 }
                 lines.push(Line {
-                    label: heading(scheme).into(),
-                    colour: colour(scheme),
+                    label: scheme.heading().into(),
+                    colour: scheme.colour(),
                     points,
                     markers: true,
                 });
