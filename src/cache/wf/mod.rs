@@ -15,13 +15,36 @@
 //! * **Lookup** reads child pointers and published slots only: no read-modify-write, no fence, no
 //!   store (unless the [`ReadFence`] policy asks for the paper's avoided barrier).
 //!
-//! **Wait-freedom.** No operation loops on a condition another thread controls. An insert descends
-//! at most [`MAX_DEPTH`](super::octree::MAX_DEPTH) levels, makes at most one child compare-and-swap
-//! per level (a failure moves it one level down, into the winner), and then one push (one
-//! `fetch_add`, at most one segment compare-and-swap, never retried). So an insert takes at most
-//! `2 * MAX_DEPTH` steps (levels + child compare-and-swaps), counted in
-//! [`WorkerStats::max_insert_steps`](super::WorkerStats). A lookup visits at most 27 nodes per level
-//! and reads each visited list once.
+//! **Wait-freedom, exactly.** No operation loops on a condition another thread controls: every
+//! loop is over the tree's levels, a node's eight children, or a list's slots, and no
+//! compare-and-swap is ever retried. What bounds each part of an insert:
+//!
+//! * *By a constant* ([`MAX_DEPTH`](super::octree::MAX_DEPTH) = 16): the descent (one Acquire load
+//!   per level) and the child compare-and-swaps (at most one per level: a lost one moves the insert
+//!   one level down, into the winner's child, or ends it under `Discard`). These are the `steps`
+//!   counted in [`WorkerStats::max_insert_steps`](super::WorkerStats), at most `2 * depth`; that
+//!   bound is true by construction (`steps` counts the loop's iterations), so the tests that assert
+//!   it guard the counting, not the algorithm. A graft builds `depth - level + 1 <= 16` fresh
+//!   nodes (each initialises 8 child pointers and an empty list) and one first segment; a lost race
+//!   frees exactly those and, under `Adopt`, may graft again one level further down. The worst
+//!   case, a race lost at every level, builds and frees `depth (depth + 1) / 2 <= 136` nodes and 16
+//!   segments: a constant, if a large one.
+//! * *By the list's size*: the push is one `fetch_add`, one segment load, one write and one store,
+//!   plus, for the insert whose index opens segment `s`, allocating and initialising that
+//!   segment's `4 * 2^s` slots (about as many as the list already holds) and one compare-and-swap.
+//!   Amortised over the inserts that fill the segment this is constant, but a single insert's worst
+//!   case grows with the list: WF is wait-free with a bound that depends on the size of the
+//!   structure, not on other threads (bounded, not population-oblivious, wait-freedom).
+//! * *By the allocator*: `Box::new` and the frees go through the global allocator, which is not
+//!   wait-free (glibc's malloc takes an arena lock when its per-thread cache misses). Only an
+//!   insert that grafts a path (at most 17 blocks per graft, see above) or opens a segment (one
+//!   block) allocates; every other insert, and every lookup, allocates nothing. So the claim is
+//!   "wait-free given a wait-free allocator", as for any wait-free structure that allocates.
+//!
+//! A lookup makes no read-modify-write and retries nothing: it visits the root and, per level,
+//! only nodes whose loose cell holds the query point (at most 27 per level, a property of the loose
+//! octree's geometry), and reads each visited list once, up to the head it loaded. Its work is
+//! bounded by the nodes and records present, never by what other threads do.
 //!
 //! Memory is reclaimed only when the whole cache is dropped: nothing is ever unlinked while the
 //! cache is shared, so no reader can meet freed memory and no epoch scheme is needed.
