@@ -3,12 +3,16 @@
 #![allow(dead_code)]
 
 pub mod models;
+#[path = "../tree_shape.rs"]
+pub mod tree_shape;
 
 use glam::Vec3;
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use wfic::cache::{CacheConfig, CacheHandle, Inserted, IrradianceCache};
 use wfic::ic::{Record, RecordId, WorkerId};
 use wfic::sync::{Arc, AtomicBool, Ordering};
+
+use tree_shape::{counted_lookup, TreeShape, Work};
 
 /// loom's preemption bound for every model: `None`, so each model explores every interleaving
 /// loom can generate (no bound at all). The models are small enough: the whole loom suite runs in
@@ -52,7 +56,12 @@ pub fn model_outcomes(f: impl Fn() -> bool + Sync + Send + 'static) -> (usize, u
     model(move || {
         c[usize::from(f())].fetch_add(1, Relaxed);
     });
-    (counts[1].load(Relaxed), counts[0].load(Relaxed))
+    let (yes, no) = (counts[1].load(Relaxed), counts[0].load(Relaxed));
+    eprintln!(
+        "{}: {yes} true, {no} false",
+        std::thread::current().name().unwrap_or("model")
+    );
+    (yes, no)
 }
 
 /// Runs a model that must fail; returns loom's (or the model's) panic message.
@@ -122,6 +131,29 @@ pub fn valid_at<C: IrradianceCache>(cache: &C, worker: u32, p: Vec3) -> Vec<Reco
     h.valid_records(p, Vec3::Z, &mut out);
     drop(h);
     out
+}
+
+/// The records valid at `p` (normal +z), through a fresh handle of worker `worker`, and the work
+/// the handle counted for the lookup (nodes visited, records examined).
+pub fn lookup_at<C: IrradianceCache>(cache: &C, worker: u32, p: Vec3) -> (Vec<Record>, Work) {
+    let mut h = cache.handle(WorkerId::new(worker));
+    let mut out = Vec::new();
+    let did = counted_lookup(&mut h, p, Vec3::Z, &mut out);
+    drop(h);
+    (out, did)
+}
+
+/// The shape of the tree the cache's stored records make (`tree_shape`), after checking that the
+/// cache has exactly those nodes: none off every stored record's path, none missing.
+pub fn settled_shape<C: IrradianceCache>(cache: &mut C) -> TreeShape {
+    let snapshot = cache.snapshot();
+    let shape = TreeShape::of(cache.config(), &snapshot);
+    assert_eq!(
+        cache.stats().nodes,
+        shape.nodes(),
+        "a node off every stored record's path, or one missing"
+    );
+    shape
 }
 
 /// A start signal that makes loom explore "the other thread goes first".

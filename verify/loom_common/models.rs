@@ -3,6 +3,7 @@
 //! (`verify/loom_orderings.rs`). Each body runs once per loom execution and returns what it
 //! observed, so the caller can check, across executions, that the interesting schedule was reached.
 
+use super::tree_shape::check_lookup;
 use super::*;
 use std::collections::HashSet;
 use wfic::cache::wf::{Orderings, RecordList};
@@ -55,18 +56,21 @@ pub fn two_inserts_race_to_create_one_child<O: Orderings>(policy: CasFailure) ->
         .iter()
         .filter(|o| matches!(o, Inserted::Stored(_)))
         .count();
-    let found = valid_at(&*cache, 9, child_record(0.1).position);
+    let mut cache = Arc::try_unwrap(cache).expect("threads joined");
+    let shape = settled_shape(&mut cache);
+    let p = child_record(0.1).position;
+    let (found, did) = lookup_at(&cache, 9, p);
     assert!(found.iter().all(|r| r.is_intact()), "torn record");
     assert_eq!(
         found.len(),
         stored,
         "stored records must be found, discarded ones not"
     );
+    check_lookup("child race", p, did, shape.reach(p), true);
     match policy {
         CasFailure::Adopt => assert_eq!(stored, 2, "Adopt must keep both samples"),
         CasFailure::Discard => assert_eq!(stored as u64, 2 - lost, "a lost race discards one"),
     }
-    let mut cache = Arc::try_unwrap(cache).expect("threads joined");
     assert_eq!(
         cache.stats().nodes,
         2,
@@ -80,8 +84,9 @@ pub fn two_inserts_race_to_create_one_child<O: Orderings>(policy: CasFailure) ->
 pub fn insert_races_lookup_through_a_new_child<O: Orderings>() -> bool {
     let cache = wf::<O>(CasFailure::Adopt);
     let c = cache.clone();
+    let p = child_record(0.0).position;
     let t = Go::race(move || insert_one(&*c, 1, child_record(0.0)));
-    let found = valid_at(&*cache, 0, child_record(0.0).position);
+    let (found, did) = lookup_at(&*cache, 0, p);
     assert!(found.len() <= 1);
     let saw = found.first().is_some_and(|r| {
         assert!(r.is_intact(), "torn record");
@@ -89,6 +94,9 @@ pub fn insert_races_lookup_through_a_new_child<O: Orderings>() -> bool {
         true
     });
     t.join().unwrap();
+    let mut cache = Arc::try_unwrap(cache).expect("threads joined");
+    let shape = settled_shape(&mut cache);
+    check_lookup("new child", p, did, shape.reach(p), false);
     saw
 }
 
