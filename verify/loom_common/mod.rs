@@ -105,6 +105,29 @@ pub fn child_record(x: f32) -> Record {
     )
 }
 
+/// A record stored at `depth` (1 to 3) in the (-,-,-) depth-1 cell, at `(x, 1, 1)`: its influence
+/// radius is 0.7 of the depth-`depth` cell's half-size, so it fits that cell and not its children.
+/// Below depth 1 the x coordinate picks the branch: `x` below 0.99 (the depth-1 cell's centre) goes
+/// to the -x children, above it to the +x ones. The placement is asserted, not assumed.
+pub fn record_at_depth(depth: u32, x: f32) -> Record {
+    let config = config();
+    let half = config.root().half / (1u32 << depth) as f32;
+    let r = Record::new(
+        Vec3::new(x, 1.0, 1.0),
+        Vec3::Z,
+        Vec3::new(2.0, 3.0, 1.0),
+        0.7 * half / config.accuracy(),
+    );
+    let placed = config
+        .geometry()
+        .placement_depth(wfic::ic::influence_radius(&r, config.accuracy()));
+    assert_eq!(
+        placed, depth,
+        "record_at_depth({depth}, {x}) is placed at depth {placed}"
+    );
+    r
+}
+
 /// A sealed record for the bare-list models; its x coordinate names it.
 pub fn sealed(x: f32) -> Record {
     Record::new(Vec3::new(x, 0.0, 0.0), Vec3::Z, Vec3::splat(x + 1.0), 1.0).sealed(RecordId::new(
