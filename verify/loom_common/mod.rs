@@ -64,12 +64,13 @@ pub fn model_outcomes(f: impl Fn() -> bool + Sync + Send + 'static) -> (usize, u
     (yes, no)
 }
 
-/// Runs a model that must fail; returns loom's (or the model's) panic message.
+/// Runs a model that must fail; returns loom's (or the model's) panic message. loom is asked to
+/// capture source locations, so a causality report names where the racing object was created and
+/// where each thread accessed it (`created: src/...`).
 pub fn expect_failure(f: impl Fn() + Sync + Send + 'static) -> String {
-    let hook = std::panic::take_hook();
-    std::panic::set_hook(Box::new(|_| {}));
-    let result = catch_unwind(AssertUnwindSafe(|| builder().check(f)));
-    std::panic::set_hook(hook);
+    let mut b = builder();
+    b.location = true;
+    let result = silently(|| catch_unwind(AssertUnwindSafe(|| b.check(f))));
     match result {
         Ok(()) => panic!("the model passed, but it was expected to fail"),
         Err(payload) => payload
@@ -78,6 +79,33 @@ pub fn expect_failure(f: impl Fn() + Sync + Send + 'static) -> String {
             .or_else(|| payload.downcast_ref::<&str>().map(|s| s.to_string()))
             .unwrap_or_default(),
     }
+}
+
+std::thread_local! {
+    /// Set while this thread runs a model that is expected to fail (loom runs a model's threads
+    /// on the thread that called it).
+    static EXPECTING_FAILURE: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+}
+
+/// Runs `f` with the panics of this thread not printed. The hook that hides them is installed
+/// once and chains to the one before it; it is never swapped out and back, because that would
+/// drop any hook installed in between: the `generator` crate under loom installs, once, a hook
+/// that hides the unwinding it uses to end a model's threads, and a restored earlier hook made
+/// every later model print those as panics.
+fn silently<R>(f: impl FnOnce() -> R) -> R {
+    static INSTALL: std::sync::Once = std::sync::Once::new();
+    INSTALL.call_once(|| {
+        let previous = std::panic::take_hook();
+        std::panic::set_hook(Box::new(move |info| {
+            if !EXPECTING_FAILURE.with(std::cell::Cell::get) {
+                previous(info);
+            }
+        }));
+    });
+    EXPECTING_FAILURE.with(|e| e.set(true));
+    let r = f();
+    EXPECTING_FAILURE.with(|e| e.set(false));
+    r
 }
 
 /// The model world: a 4-unit box at accuracy 1.
