@@ -4,6 +4,7 @@
 
 mod loom_common;
 
+use loom_common::tree_shape::{check_lookup, counted_lookup, TreeShape};
 use loom_common::*;
 use wfic::cache::{
     CacheHandle, IrradianceCache, LocalWrite, LockFlavour, Locked, MutexFlavour, RwLockFlavour,
@@ -11,17 +12,25 @@ use wfic::cache::{
 use wfic::ic::WorkerId;
 use wfic::sync::{thread, Arc};
 
-/// An insert and a lookup race on LCK: the lookup sees nothing or the whole record; afterwards
-/// both inserts are there. Returns whether the racing lookup saw the record.
+/// An insert and a lookup race on LCK: the lookup sees nothing or the whole record, and walks no
+/// more of the tree than the final records make; afterwards both inserts are there and a lookup
+/// walks exactly that tree's reach. Returns whether the racing lookup saw the record.
 fn lck_insert_races_lookup<F: LockFlavour + 'static>() -> bool {
     let cache = Arc::new(Locked::<F>::new(config()));
     let c = cache.clone();
+    let p = child_record(0.0).position;
     let t = thread::spawn(move || insert_one(&*c, 1, child_record(0.0)));
-    let found = valid_at(&*cache, 0, child_record(0.0).position);
+    let (found, racing) = lookup_at(&*cache, 0, p);
     assert!(found.len() <= 1 && found.iter().all(|r| r.is_intact()));
     t.join().unwrap();
     insert_one(&*cache, 2, child_record(0.2));
-    assert_eq!(valid_at(&*cache, 3, child_record(0.1).position).len(), 2);
+    let mut cache = Arc::try_unwrap(cache).unwrap_or_else(|_| panic!("threads joined"));
+    let shape = settled_shape(&mut cache);
+    check_lookup("lck", p, racing, shape.reach(p), false);
+    let q = child_record(0.1).position;
+    let (all, did) = lookup_at(&cache, 3, q);
+    assert_eq!(all.len(), 2);
+    check_lookup("lck", q, did, shape.reach(q), true);
     !found.is_empty()
 }
 
@@ -52,7 +61,9 @@ fn lck_two_inserts() {
 
 /// LW's frame: the global cache holds one record from an earlier frame; two workers read it
 /// concurrently and each inserts into its own local cache (seeing its own record, never the
-/// other's); after the barrier the merge publishes both to everyone.
+/// other's); after the barrier the merge publishes both to everyone. A worker's lookup walks
+/// exactly the global octree's reach (nobody writes it during the frame) plus, once it holds a
+/// record, its own local octree's: nothing another worker does changes either.
 #[test]
 fn lw_frame_then_merge() {
     model(|| {
@@ -64,30 +75,43 @@ fn lw_frame_then_merge() {
         h.insert(global).unwrap();
         drop(h);
         lw.end_frame();
+        let global_shape = settled_shape(&mut lw);
 
         let lw = Arc::new(lw);
-        let worker = |lw: Arc<LocalWrite>, id: u32, x: f32| {
+        let worker = move |lw: Arc<LocalWrite>, id: u32, x: f32| {
             let mut h = lw.handle(WorkerId::new(id));
             let mut found = Vec::new();
-            h.valid_records(child_record(0.0).position, glam::Vec3::Z, &mut found);
+            let p = child_record(0.0).position;
+            let did = counted_lookup(&mut h, p, glam::Vec3::Z, &mut found);
             assert_eq!(
                 found.len(),
                 1,
                 "the global record is readable by every worker"
             );
+            check_lookup("lw global", p, did, global_shape.reach(p), true);
             h.insert(child_record(x)).unwrap();
             found.clear();
-            h.valid_records(child_record(0.1).position, glam::Vec3::Z, &mut found);
+            let q = child_record(0.1).position;
+            let did = counted_lookup(&mut h, q, glam::Vec3::Z, &mut found);
             // Its own record and the global one; the other worker's is local to it.
             assert_eq!(
                 found.len(),
                 2,
                 "worker {id} sees the global record and its own"
             );
+            let local = TreeShape::of(lw.config(), &[child_record(x)]);
+            check_lookup(
+                "lw global and local",
+                q,
+                did,
+                global_shape.reach(q) + local.reach(q),
+                true,
+            );
             // Dropping the handle hands its local records to the merge.
         };
         let l = lw.clone();
-        let t = thread::spawn(move || worker(l, 1, 0.0));
+        let w = worker.clone();
+        let t = thread::spawn(move || w(l, 1, 0.0));
         worker(lw.clone(), 0, 0.2);
         t.join().unwrap();
         let mut lw = Arc::try_unwrap(lw).unwrap_or_else(|_| panic!("workers joined"));
@@ -98,6 +122,10 @@ fn lw_frame_then_merge() {
             3,
             "the merge publishes both local records"
         );
-        assert_eq!(valid_at(&lw, 5, child_record(0.1).position).len(), 3);
+        let shape = settled_shape(&mut lw);
+        let q = child_record(0.1).position;
+        let (all, did) = lookup_at(&lw, 5, q);
+        assert_eq!(all.len(), 3);
+        check_lookup("lw merged", q, did, shape.reach(q), true);
     });
 }

@@ -80,6 +80,54 @@ fn two_inserts_race_to_install_one_segment_minimal() {
     model(two_inserts_race_to_install_one_segment::<Minimal>);
 }
 
+#[test]
+fn two_deep_inserts_race_for_a_shared_child_adopt() {
+    let (lost, won) =
+        model_outcomes(|| two_deep_inserts_race_for_a_shared_child::<Minimal>(CasFailure::Adopt));
+    assert!(
+        lost > 0,
+        "no schedule took lose, adopt the winner's child, graft deeper"
+    );
+    assert!(
+        won > 0,
+        "no schedule where the second insert found the child"
+    );
+}
+
+#[test]
+fn two_deep_inserts_race_for_a_shared_child_discard() {
+    let (lost, won) =
+        model_outcomes(|| two_deep_inserts_race_for_a_shared_child::<Minimal>(CasFailure::Discard));
+    assert!(lost > 0, "no explored schedule discarded a sample");
+    assert!(
+        won > 0,
+        "no schedule where the second insert found the child"
+    );
+}
+
+#[test]
+fn lookup_races_a_deep_chain_minimal() {
+    let (yes, no) = model_outcomes(lookup_races_a_deep_chain::<Minimal>);
+    assert!(yes > 0, "the lookup never saw the record");
+    assert!(no > 0, "the lookup always saw the record");
+}
+
+#[test]
+fn an_insert_that_happens_before_a_lookup_is_found_new_chain() {
+    let (flagged, not) =
+        model_outcomes(|| an_insert_that_happens_before_a_lookup_is_found::<Minimal>(false));
+    assert!(flagged > 0, "the lookup never saw the flag");
+    assert!(not > 0, "the lookup always saw the flag");
+}
+
+#[test]
+fn an_insert_that_happens_before_a_lookup_is_found_existing_node() {
+    let (flagged, not) =
+        model_outcomes(|| an_insert_that_happens_before_a_lookup_is_found::<Minimal>(true));
+    assert!(flagged > 0, "the lookup never saw the flag");
+    assert!(not > 0, "the lookup always saw the flag");
+}
+
 /// The stronger policies are sound too (loom treats SeqCst as AcqRel: this shows they are at
 /// least as strong as Minimal where loom can tell).
 #[test]
@@ -94,4 +142,10 @@ fn stronger_policies_pass_the_same_models() {
         two_inserts_race_to_create_one_child::<SeqCstEverywhere>(CasFailure::Adopt);
     });
     model(two_inserts_race_to_install_one_segment::<SeqCstEverywhere>);
+    model(|| {
+        two_deep_inserts_race_for_a_shared_child::<SeqCstEverywhere>(CasFailure::Adopt);
+    });
+    model(|| {
+        lookup_races_a_deep_chain::<ReadFence>();
+    });
 }

@@ -9,10 +9,12 @@
 #![cfg(feature = "shuttle")]
 
 mod shuttle_common;
+mod tree_shape;
 
 use glam::Vec3;
 use shuttle_common::{explore_all, Sched};
 use std::collections::HashSet;
+use tree_shape::{check_lookup, counted_lookup, TreeShape};
 use wfic::cache::wf::Minimal;
 use wfic::cache::{
     CacheConfig, CacheHandle, CasFailure, Inserted, IrradianceCache, LocalWrite, Locked,
@@ -56,9 +58,11 @@ fn genuine(r: &Record) -> bool {
 }
 
 /// One schedule: `threads` workers, each doing `ops` operations, one insert in `insert_every`, the
-/// rest lookups at positions other workers insert at. Checks racing reads, then the final state.
+/// rest lookups at positions other workers insert at. Checks racing reads, then the final state,
+/// then every lookup's work against the tree the stored records make (`tree_shape`).
 fn workload<C: IrradianceCache + 'static>(cache: C, threads: u32, ops: u64, insert_every: u64) {
     let scheme = cache.scheme();
+    let config = *cache.config();
     let cache = Arc::new(cache);
     let workers: Vec<_> = (0..threads)
         .map(|t| {
@@ -66,6 +70,7 @@ fn workload<C: IrradianceCache + 'static>(cache: C, threads: u32, ops: u64, inse
             thread::spawn(move || {
                 let mut h = cache.handle(WorkerId::new(t));
                 let mut outcomes = Vec::new();
+                let mut lookups = Vec::new();
                 let mut found = Vec::new();
                 for i in 0..ops {
                     if i % insert_every == 0 {
@@ -75,34 +80,30 @@ fn workload<C: IrradianceCache + 'static>(cache: C, threads: u32, ops: u64, inse
                         let other = (t + 1 + (i as u32 % threads.max(2))) % threads;
                         let q = record_for(other, i / insert_every);
                         found.clear();
-                        h.valid_records(q.position, q.normal, &mut found);
+                        let did = counted_lookup(&mut h, q.position, q.normal, &mut found);
+                        lookups.push((q.position, did));
                         assert!(
                             found.iter().all(genuine),
                             "{scheme}: phantom or torn record"
                         );
                     }
                 }
-                // A lookup visits the root and at most 27 nodes per level below it.
-                let nodes = h.stats().max_lookup_nodes;
-                let node_bound = 1 + 27 * MAX_RECORD_DEPTH;
-                assert!(
-                    nodes <= node_bound,
-                    "{scheme}: a lookup visited {nodes} nodes, bound {node_bound}"
-                );
                 let steps = h.stats().max_insert_steps;
                 assert!(
                     steps <= 2 * MAX_RECORD_DEPTH,
                     "{scheme}: an insert took {steps} steps, bound {}",
                     2 * MAX_RECORD_DEPTH
                 );
-                outcomes
+                (outcomes, lookups)
             })
         })
         .collect();
     let mut stored = HashSet::new();
     let mut discarded = 0;
-    for w in workers {
-        let outcomes = w.join().unwrap();
+    let mut lookups = Vec::new();
+    for (t, w) in workers.into_iter().enumerate() {
+        let (outcomes, looked) = w.join().unwrap();
+        lookups.push((t as u32, looked));
         for o in outcomes {
             match o {
                 Inserted::Stored(id) => assert!(stored.insert(id), "{scheme}: id reused"),
@@ -125,18 +126,74 @@ fn workload<C: IrradianceCache + 'static>(cache: C, threads: u32, ops: u64, inse
     let ids: HashSet<_> = snapshot.iter().map(Record::id).collect();
     assert_eq!(ids.len(), snapshot.len(), "{scheme}: duplicated record");
     assert_eq!(ids, stored, "{scheme}: stored set");
+
+    // The tree the stored records make, worked out from them alone; the cache has exactly it.
+    let shape = TreeShape::of(&config, &snapshot);
+    assert_eq!(
+        cache.stats().nodes,
+        shape.nodes(),
+        "{scheme}: a node off every stored record's path, or one missing"
+    );
+    assert!(
+        shape.depth() <= MAX_RECORD_DEPTH as usize,
+        "{scheme}: records placed deeper than the step bound assumes"
+    );
+    // Every racing lookup stayed within the final tree's part its point reaches. LW's workers
+    // read the global octree (empty: the cache started empty, and the workers' records are merged
+    // only at the frame's end) and their own local one.
+    let no_earlier_frame = TreeShape::of(&config, &[]);
+    for (t, looked) in &lookups {
+        let own = (scheme == "lw").then(|| {
+            let mine = snapshot.iter().filter(|r| r.id().worker().index() == *t);
+            TreeShape::of(&config, mine)
+        });
+        for &(p, did) in looked {
+            let allowed = match &own {
+                Some(own) => no_earlier_frame.reach(p) + own.reach(p),
+                None => shape.reach(p),
+            };
+            check_lookup(scheme, p, did, allowed, false);
+        }
+    }
+
+    // Quiescent lookups, after the frame: every stored record found exactly once, and at every
+    // point the workers asked at or inserted at, exactly the final tree's reach is walked.
     let mut h = cache.handle(WorkerId::new(threads));
     let mut found = Vec::new();
+    let mut points = Vec::new();
     for id in &stored {
         let r = record_for(id.worker().index(), id.seq());
         found.clear();
-        h.valid_records(r.position, r.normal, &mut found);
+        let did = counted_lookup(&mut h, r.position, r.normal, &mut found);
+        check_lookup(scheme, r.position, did, shape.reach(r.position), true);
         assert_eq!(
             found.iter().filter(|f| f.id() == *id).count(),
             1,
             "{scheme}: {id} not found once"
         );
+        points.push(r.position);
     }
+    let asked: HashSet<[u32; 3]> = lookups
+        .iter()
+        .flat_map(|(_, looked)| looked.iter().map(|(p, _)| p.to_array().map(f32::to_bits)))
+        .collect();
+    for p in asked
+        .into_iter()
+        .map(|bits| Vec3::from_array(bits.map(f32::from_bits)))
+    {
+        found.clear();
+        let did = counted_lookup(&mut h, p, Vec3::Z, &mut found);
+        check_lookup(scheme, p, did, shape.reach(p), true);
+        points.push(p);
+    }
+    // Vacuity: at some point the bound is below the whole tree, so a lookup that walked the whole
+    // tree would have failed it.
+    assert!(
+        points
+            .iter()
+            .any(|p| shape.reach(*p).nodes < shape.nodes() as u64),
+        "{scheme}: every point reaches the whole tree; the bound cannot tell a pruned lookup"
+    );
 }
 
 /// Fixed regression seeds, run every time beside a fresh one.

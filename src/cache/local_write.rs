@@ -29,7 +29,7 @@
 use super::frame::Ledger;
 use super::{
     collect_valid, CacheConfig, CacheHandle, CacheStats, FrameReport, HandleCore, Inserted,
-    IrradianceCache, Octree, WorkerStats,
+    IrradianceCache, Octree, Work, WorkerStats,
 };
 use crate::ic::{InsertError, Interpolated, Record, WorkerId};
 use glam::Vec3;
@@ -118,14 +118,16 @@ impl CacheHandle for LwHandle<'_> {
         let mut acc = self
             .core
             .begin_lookup(self.global.config(), point, normal)?;
+        let mut records = 0;
         let mut add = |r: &Record| {
+            records += 1;
             acc.add(r);
         };
         let mut nodes = self.global.visit(point, &mut add);
         if !self.core.local.is_empty() {
             nodes += self.core.local.visit(point, &mut add);
         }
-        self.core.end_lookup(&acc, nodes)
+        self.core.end_lookup(&acc, Work { nodes, records })
     }
 
     fn insert(&mut self, record: Record) -> Result<Inserted, InsertError> {
@@ -136,9 +138,16 @@ impl CacheHandle for LwHandle<'_> {
 
     fn valid_records(&mut self, point: Vec3, normal: Vec3, out: &mut Vec<Record>) {
         let (global, local) = (self.global, &self.core.local);
-        collect_valid(global.config(), point, normal, out, |p, f| {
-            global.visit(p, &mut |r| f(r)) + local.visit(p, &mut |r| f(r))
+        // As a lookup does: the local octree only once it holds a record.
+        let work = collect_valid(global.config(), point, normal, out, |p, f| {
+            let global_nodes = global.visit(p, &mut |r| f(r));
+            if local.is_empty() {
+                global_nodes
+            } else {
+                global_nodes + local.visit(p, &mut |r| f(r))
+            }
         });
+        self.core.traversed(work);
     }
 
     fn stats(&self) -> &WorkerStats {

@@ -9,7 +9,7 @@
 use super::frame::Ledger;
 use super::{
     collect_valid, CacheConfig, CacheHandle, CacheStats, FrameReport, HandleCore, Inserted,
-    IrradianceCache, Octree, WorkerStats,
+    IrradianceCache, Octree, Work, WorkerStats,
 };
 use crate::ic::{InsertError, Interpolated, Record, WorkerId};
 use crate::sync::{
@@ -208,6 +208,7 @@ impl<F: LockFlavour> CacheHandle for LckHandle<'_, F> {
     fn lookup(&mut self, point: Vec3, normal: Vec3) -> Option<Interpolated> {
         let mut acc = self.core.begin_lookup(&self.cache.config, point, normal)?;
         let tree = &self.cache.tree;
+        let mut records = 0;
         let nodes = {
             let guard = acquire(
                 &mut self.core.stats.lock_wait,
@@ -215,10 +216,11 @@ impl<F: LockFlavour> CacheHandle for LckHandle<'_, F> {
                 || tree.read(),
             );
             guard.visit(point, &mut |r| {
+                records += 1;
                 acc.add(r);
             })
         };
-        self.core.end_lookup(&acc, nodes)
+        self.core.end_lookup(&acc, Work { nodes, records })
     }
 
     fn insert(&mut self, record: Record) -> Result<Inserted, InsertError> {
@@ -236,10 +238,13 @@ impl<F: LockFlavour> CacheHandle for LckHandle<'_, F> {
     }
 
     fn valid_records(&mut self, point: Vec3, normal: Vec3, out: &mut Vec<Record>) {
-        let guard = self.cache.tree.read();
-        collect_valid(&self.cache.config, point, normal, out, |p, f| {
-            guard.visit(p, &mut |r| f(r))
-        });
+        let work = {
+            let guard = self.cache.tree.read();
+            collect_valid(&self.cache.config, point, normal, out, |p, f| {
+                guard.visit(p, &mut |r| f(r))
+            })
+        };
+        self.core.traversed(work);
     }
 
     fn stats(&self) -> &WorkerStats {

@@ -111,7 +111,9 @@ impl CacheConfig {
         self.geometry.root
     }
 
-    pub(crate) fn geometry(&self) -> &Geometry {
+    /// The loose-octree geometry every scheme places records and prunes queries with (public so
+    /// that tests can work out a tree's shape from its records without the caches' traversals).
+    pub fn geometry(&self) -> &Geometry {
         &self.geometry
     }
 
@@ -180,8 +182,18 @@ pub struct WorkerStats {
     pub lock_wait: Duration,
     /// Most tree levels plus compare-and-swap attempts one insert took (WF's step bound).
     pub max_insert_steps: u32,
-    /// Most nodes one lookup visited.
+    /// Most nodes one lookup visited. Lookups and [`CacheHandle::valid_records`] calls are
+    /// traversals alike and both count here (and in the three counters below); only lookups count
+    /// in `lookups` and `hits`.
     pub max_lookup_nodes: u32,
+    /// Most records one lookup examined: every record read from the lists of the nodes it
+    /// visited, valid for the query or not.
+    pub max_lookup_records: u32,
+    /// Nodes visited by every lookup and `valid_records` call, summed. One traversal's count is
+    /// the difference across it.
+    pub lookup_nodes: u64,
+    /// Records examined by every lookup and `valid_records` call, summed.
+    pub lookup_records: u64,
 }
 
 impl AddAssign<&WorkerStats> for WorkerStats {
@@ -197,6 +209,9 @@ impl AddAssign<&WorkerStats> for WorkerStats {
         self.lock_wait += o.lock_wait;
         self.max_insert_steps = self.max_insert_steps.max(o.max_insert_steps);
         self.max_lookup_nodes = self.max_lookup_nodes.max(o.max_lookup_nodes);
+        self.max_lookup_records = self.max_lookup_records.max(o.max_lookup_records);
+        self.lookup_nodes += o.lookup_nodes;
+        self.lookup_records += o.lookup_records;
     }
 }
 
@@ -365,6 +380,17 @@ impl<'c, X: Local> HandleCore<'c, X> {
         outcome
     }
 
+    /// Counts one traversal's work: a lookup's, or a `valid_records` call's (which is not a lookup:
+    /// `lookups` and `hits` are left alone).
+    #[inline]
+    pub fn traversed(&mut self, work: Work) {
+        let s = &mut self.stats;
+        s.max_lookup_nodes = s.max_lookup_nodes.max(work.nodes);
+        s.max_lookup_records = s.max_lookup_records.max(work.records);
+        s.lookup_nodes += u64::from(work.nodes);
+        s.lookup_records += u64::from(work.records);
+    }
+
     /// A fresh accumulator for a query by this worker, or `None` for a query that cannot be answered.
     #[inline]
     pub fn begin_lookup(
@@ -378,10 +404,10 @@ impl<'c, X: Local> HandleCore<'c, X> {
             .then(|| Accumulator::new(point, normal, config.accuracy(), Some(self.worker)))
     }
 
-    /// Counts a lookup's outcome.
+    /// Counts a lookup's outcome and its work.
     #[inline]
-    pub fn end_lookup(&mut self, acc: &Accumulator, nodes: u32) -> Option<Interpolated> {
-        self.stats.max_lookup_nodes = self.stats.max_lookup_nodes.max(nodes);
+    pub fn end_lookup(&mut self, acc: &Accumulator, work: Work) -> Option<Interpolated> {
+        self.traversed(work);
         let out = acc.finish();
         if let Some(hit) = &out {
             self.stats.hits += 1;
@@ -393,20 +419,32 @@ impl<'c, X: Local> HandleCore<'c, X> {
     }
 }
 
-/// Collects the records a query would use, through any cache's visitor.
+/// What one traversal of a cache did: the nodes it visited and the records it examined (read from
+/// those nodes' lists, valid or not).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub(crate) struct Work {
+    pub nodes: u32,
+    pub records: u32,
+}
+
+/// Collects the records a query would use, through any cache's visitor; returns the traversal's
+/// work (none for a query that cannot be answered).
 pub(crate) fn collect_valid(
     config: &CacheConfig,
     point: Vec3,
     normal: Vec3,
     out: &mut Vec<Record>,
     visit: impl FnOnce(Vec3, &mut dyn FnMut(&Record)) -> u32,
-) {
+) -> Work {
     if !ic::is_valid_query(point, normal) {
-        return;
+        return Work::default();
     }
-    visit(point, &mut |r: &Record| {
+    let mut records = 0;
+    let nodes = visit(point, &mut |r: &Record| {
+        records += 1;
         if ic::valid_weight(r, point, normal, config.accuracy()).is_some() {
             out.push(*r);
         }
     });
+    Work { nodes, records }
 }

@@ -5,7 +5,7 @@
 
 use super::frame::Ledger;
 use super::{
-    CacheConfig, CacheHandle, CacheStats, FrameReport, HandleCore, Inserted, IrradianceCache,
+    CacheConfig, CacheHandle, CacheStats, FrameReport, HandleCore, Inserted, IrradianceCache, Work,
     WorkerStats,
 };
 use crate::ic::{InsertError, Interpolated, Record, WorkerId};
@@ -79,7 +79,7 @@ impl CacheHandle for NoCacheHandle<'_> {
     #[inline]
     fn lookup(&mut self, point: Vec3, normal: Vec3) -> Option<Interpolated> {
         let acc = self.core.begin_lookup(self.config, point, normal)?;
-        self.core.end_lookup(&acc, 0)
+        self.core.end_lookup(&acc, Work::default())
     }
 
     fn insert(&mut self, record: Record) -> Result<Inserted, InsertError> {

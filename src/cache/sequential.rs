@@ -14,7 +14,7 @@ use super::frame::{Ledger, Local};
 use super::octree::{Cell, Octant};
 use super::{
     collect_valid, CacheConfig, CacheHandle, CacheStats, FrameReport, HandleCore, Inserted,
-    IrradianceCache, WorkerStats,
+    IrradianceCache, Work, WorkerStats,
 };
 use crate::ic::{InsertError, Interpolated, Record, WorkerId};
 use crate::sync::{unpoison, Mutex, MutexGuard};
@@ -238,10 +238,12 @@ impl CacheHandle for SeqHandle<'_> {
     #[inline]
     fn lookup(&mut self, point: Vec3, normal: Vec3) -> Option<Interpolated> {
         let mut acc = self.core.begin_lookup(self.tree.config(), point, normal)?;
+        let mut records = 0;
         let nodes = self.tree.visit(point, &mut |r| {
+            records += 1;
             acc.add(r);
         });
-        self.core.end_lookup(&acc, nodes)
+        self.core.end_lookup(&acc, Work { nodes, records })
     }
 
     fn insert(&mut self, record: Record) -> Result<Inserted, InsertError> {
@@ -252,9 +254,10 @@ impl CacheHandle for SeqHandle<'_> {
 
     fn valid_records(&mut self, point: Vec3, normal: Vec3, out: &mut Vec<Record>) {
         let tree = &*self.tree;
-        collect_valid(tree.config(), point, normal, out, |p, f| {
+        let work = collect_valid(tree.config(), point, normal, out, |p, f| {
             tree.visit(p, &mut |r| f(r))
         });
+        self.core.traversed(work);
     }
 
     fn stats(&self) -> &WorkerStats {

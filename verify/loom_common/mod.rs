@@ -3,12 +3,16 @@
 #![allow(dead_code)]
 
 pub mod models;
+#[path = "../tree_shape.rs"]
+pub mod tree_shape;
 
 use glam::Vec3;
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use wfic::cache::{CacheConfig, CacheHandle, Inserted, IrradianceCache};
 use wfic::ic::{Record, RecordId, WorkerId};
 use wfic::sync::{Arc, AtomicBool, Ordering};
+
+use tree_shape::{counted_lookup, TreeShape, Work};
 
 /// loom's preemption bound for every model: `None`, so each model explores every interleaving
 /// loom can generate (no bound at all). The models are small enough: the whole loom suite runs in
@@ -52,15 +56,21 @@ pub fn model_outcomes(f: impl Fn() -> bool + Sync + Send + 'static) -> (usize, u
     model(move || {
         c[usize::from(f())].fetch_add(1, Relaxed);
     });
-    (counts[1].load(Relaxed), counts[0].load(Relaxed))
+    let (yes, no) = (counts[1].load(Relaxed), counts[0].load(Relaxed));
+    eprintln!(
+        "{}: {yes} true, {no} false",
+        std::thread::current().name().unwrap_or("model")
+    );
+    (yes, no)
 }
 
-/// Runs a model that must fail; returns loom's (or the model's) panic message.
+/// Runs a model that must fail; returns loom's (or the model's) panic message. loom is asked to
+/// capture source locations, so a causality report names where the racing object was created and
+/// where each thread accessed it (`created: src/...`).
 pub fn expect_failure(f: impl Fn() + Sync + Send + 'static) -> String {
-    let hook = std::panic::take_hook();
-    std::panic::set_hook(Box::new(|_| {}));
-    let result = catch_unwind(AssertUnwindSafe(|| builder().check(f)));
-    std::panic::set_hook(hook);
+    let mut b = builder();
+    b.location = true;
+    let result = silently(|| catch_unwind(AssertUnwindSafe(|| b.check(f))));
     match result {
         Ok(()) => panic!("the model passed, but it was expected to fail"),
         Err(payload) => payload
@@ -69,6 +79,33 @@ pub fn expect_failure(f: impl Fn() + Sync + Send + 'static) -> String {
             .or_else(|| payload.downcast_ref::<&str>().map(|s| s.to_string()))
             .unwrap_or_default(),
     }
+}
+
+std::thread_local! {
+    /// Set while this thread runs a model that is expected to fail (loom runs a model's threads
+    /// on the thread that called it).
+    static EXPECTING_FAILURE: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+}
+
+/// Runs `f` with the panics of this thread not printed. The hook that hides them is installed
+/// once and chains to the one before it; it is never swapped out and back, because that would
+/// drop any hook installed in between: the `generator` crate under loom installs, once, a hook
+/// that hides the unwinding it uses to end a model's threads, and a restored earlier hook made
+/// every later model print those as panics.
+fn silently<R>(f: impl FnOnce() -> R) -> R {
+    static INSTALL: std::sync::Once = std::sync::Once::new();
+    INSTALL.call_once(|| {
+        let previous = std::panic::take_hook();
+        std::panic::set_hook(Box::new(move |info| {
+            if !EXPECTING_FAILURE.with(std::cell::Cell::get) {
+                previous(info);
+            }
+        }));
+    });
+    EXPECTING_FAILURE.with(|e| e.set(true));
+    let r = f();
+    EXPECTING_FAILURE.with(|e| e.set(false));
+    r
 }
 
 /// The model world: a 4-unit box at accuracy 1.
@@ -94,6 +131,29 @@ pub fn child_record(x: f32) -> Record {
         Vec3::new(3.0, 2.0, 1.0),
         0.8,
     )
+}
+
+/// A record stored at `depth` (1 to 3) in the (-,-,-) depth-1 cell, at `(x, 1, 1)`: its influence
+/// radius is 0.7 of the depth-`depth` cell's half-size, so it fits that cell and not its children.
+/// Below depth 1 the x coordinate picks the branch: `x` below 0.99 (the depth-1 cell's centre) goes
+/// to the -x children, above it to the +x ones. The placement is asserted, not assumed.
+pub fn record_at_depth(depth: u32, x: f32) -> Record {
+    let config = config();
+    let half = config.root().half / (1u32 << depth) as f32;
+    let r = Record::new(
+        Vec3::new(x, 1.0, 1.0),
+        Vec3::Z,
+        Vec3::new(2.0, 3.0, 1.0),
+        0.7 * half / config.accuracy(),
+    );
+    let placed = config
+        .geometry()
+        .placement_depth(wfic::ic::influence_radius(&r, config.accuracy()));
+    assert_eq!(
+        placed, depth,
+        "record_at_depth({depth}, {x}) is placed at depth {placed}"
+    );
+    r
 }
 
 /// A sealed record for the bare-list models; its x coordinate names it.
@@ -122,6 +182,29 @@ pub fn valid_at<C: IrradianceCache>(cache: &C, worker: u32, p: Vec3) -> Vec<Reco
     h.valid_records(p, Vec3::Z, &mut out);
     drop(h);
     out
+}
+
+/// The records valid at `p` (normal +z), through a fresh handle of worker `worker`, and the work
+/// the handle counted for the lookup (nodes visited, records examined).
+pub fn lookup_at<C: IrradianceCache>(cache: &C, worker: u32, p: Vec3) -> (Vec<Record>, Work) {
+    let mut h = cache.handle(WorkerId::new(worker));
+    let mut out = Vec::new();
+    let did = counted_lookup(&mut h, p, Vec3::Z, &mut out);
+    drop(h);
+    (out, did)
+}
+
+/// The shape of the tree the cache's stored records make (`tree_shape`), after checking that the
+/// cache has exactly those nodes: none off every stored record's path, none missing.
+pub fn settled_shape<C: IrradianceCache>(cache: &mut C) -> TreeShape {
+    let snapshot = cache.snapshot();
+    let shape = TreeShape::of(cache.config(), &snapshot);
+    assert_eq!(
+        cache.stats().nodes,
+        shape.nodes(),
+        "a node off every stored record's path, or one missing"
+    );
+    shape
 }
 
 /// A start signal that makes loom explore "the other thread goes first".

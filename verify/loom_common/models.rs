@@ -3,6 +3,7 @@
 //! (`verify/loom_orderings.rs`). Each body runs once per loom execution and returns what it
 //! observed, so the caller can check, across executions, that the interesting schedule was reached.
 
+use super::tree_shape::{check_lookup, Work};
 use super::*;
 use std::collections::HashSet;
 use wfic::cache::wf::{Orderings, RecordList};
@@ -55,18 +56,21 @@ pub fn two_inserts_race_to_create_one_child<O: Orderings>(policy: CasFailure) ->
         .iter()
         .filter(|o| matches!(o, Inserted::Stored(_)))
         .count();
-    let found = valid_at(&*cache, 9, child_record(0.1).position);
+    let mut cache = Arc::try_unwrap(cache).expect("threads joined");
+    let shape = settled_shape(&mut cache);
+    let p = child_record(0.1).position;
+    let (found, did) = lookup_at(&cache, 9, p);
     assert!(found.iter().all(|r| r.is_intact()), "torn record");
     assert_eq!(
         found.len(),
         stored,
         "stored records must be found, discarded ones not"
     );
+    check_lookup("child race", p, did, shape.reach(p), true);
     match policy {
         CasFailure::Adopt => assert_eq!(stored, 2, "Adopt must keep both samples"),
         CasFailure::Discard => assert_eq!(stored as u64, 2 - lost, "a lost race discards one"),
     }
-    let mut cache = Arc::try_unwrap(cache).expect("threads joined");
     assert_eq!(
         cache.stats().nodes,
         2,
@@ -80,8 +84,9 @@ pub fn two_inserts_race_to_create_one_child<O: Orderings>(policy: CasFailure) ->
 pub fn insert_races_lookup_through_a_new_child<O: Orderings>() -> bool {
     let cache = wf::<O>(CasFailure::Adopt);
     let c = cache.clone();
+    let p = child_record(0.0).position;
     let t = Go::race(move || insert_one(&*c, 1, child_record(0.0)));
-    let found = valid_at(&*cache, 0, child_record(0.0).position);
+    let (found, did) = lookup_at(&*cache, 0, p);
     assert!(found.len() <= 1);
     let saw = found.first().is_some_and(|r| {
         assert!(r.is_intact(), "torn record");
@@ -89,6 +94,9 @@ pub fn insert_races_lookup_through_a_new_child<O: Orderings>() -> bool {
         true
     });
     t.join().unwrap();
+    let mut cache = Arc::try_unwrap(cache).expect("threads joined");
+    let shape = settled_shape(&mut cache);
+    check_lookup("new child", p, did, shape.reach(p), false);
     saw
 }
 
@@ -169,4 +177,214 @@ pub fn two_inserts_race_to_install_one_segment<O: Orderings>() {
     });
     seen.sort_by(f32::total_cmp);
     assert_eq!(seen, [0.0, 1.0, 2.0, 3.0]);
+}
+
+/// The depth of the deep models' records: a record's path below the root is three nodes, so a
+/// graft at depth 1 publishes a private chain of three and a graft at depth 2 one of two.
+pub const DEEP: u32 = 3;
+
+/// The deep models' two records. Both are placed at depth [`DEEP`] under the same depth-1 node
+/// ((-,-,-)), and their paths part just below it: `A` goes to the -x depth-2 child, `B` to the +x
+/// one. Neither one's depth-2 or depth-3 loose cell holds the other's position, so a lookup at
+/// either point must leave the other's branch out.
+pub fn deep_a() -> Record {
+    record_at_depth(DEEP, 0.2)
+}
+
+/// See [`deep_a`].
+pub fn deep_b() -> Record {
+    record_at_depth(DEEP, 1.7)
+}
+
+/// Two inserts at depth [`DEEP`] race to create the same missing depth-1 child; below it their
+/// paths diverge. Returns whether a compare-and-swap was lost in this execution.
+///
+/// The winner publishes its whole path (three nodes) with one compare-and-swap. With `Adopt` the
+/// loser frees its private three-node chain, walks into the winner's depth-1 node and grafts its
+/// own two-node chain below it: the loser's insert then took exactly 4 steps (descend, lost
+/// compare-and-swap, descend, won compare-and-swap), both records are stored and the tree has the
+/// root, the shared depth-1 node and both two-node branches. With `Discard` the loser's record
+/// and chain are gone: one branch. In every execution the tree is exactly the stored records'
+/// tree, and a quiescent lookup at either record walks exactly the part of it that its point
+/// reaches and finds exactly its own record when stored.
+pub fn two_deep_inserts_race_for_a_shared_child<O: Orderings>(policy: CasFailure) -> bool {
+    let (a, b) = (deep_a(), deep_b());
+    let cache = wf::<O>(policy);
+    let c = cache.clone();
+    let t = Go::race(move || insert_one(&*c, 1, a));
+    let mine = insert_one(&*cache, 0, b);
+    let theirs = t.join().unwrap();
+    let lost = mine.2 + theirs.2;
+    assert!(lost <= 1, "two compare-and-swaps lost");
+    let bound = 2 * DEEP;
+    assert!(
+        mine.1 <= bound && theirs.1 <= bound,
+        "steps {} {} > {bound}",
+        mine.1,
+        theirs.1
+    );
+    let is_stored = |o: &Inserted| matches!(o, Inserted::Stored(_));
+    let stored = usize::from(is_stored(&mine.0)) + usize::from(is_stored(&theirs.0));
+    let mut cache = Arc::try_unwrap(cache).expect("threads joined");
+    let shape = settled_shape(&mut cache);
+    // Nodes of one record's path below the shared depth-1 node.
+    let branch = (DEEP - 1) as usize;
+    match policy {
+        CasFailure::Adopt => {
+            assert_eq!(stored, 2, "Adopt must keep both samples");
+            assert_eq!(
+                shape.nodes(),
+                2 + 2 * branch,
+                "root, one shared depth-1 node, two branches"
+            );
+            if lost == 1 {
+                let loser = if mine.2 == 1 { mine } else { theirs };
+                assert_eq!(
+                    loser.1, 4,
+                    "the loser must adopt the winner's depth-1 node and graft its own chain below it"
+                );
+            }
+        }
+        CasFailure::Discard => {
+            assert_eq!(stored as u64, 2 - lost, "a lost race discards one");
+            assert_eq!(
+                shape.nodes(),
+                2 + stored * branch,
+                "root, one depth-1 node, one branch per stored record"
+            );
+        }
+    }
+    for (worker, r, outcome) in [(8, a, theirs.0), (9, b, mine.0)] {
+        let (found, did) = lookup_at(&cache, worker, r.position);
+        check_lookup(
+            "deep child race",
+            r.position,
+            did,
+            shape.reach(r.position),
+            true,
+        );
+        assert!(found.iter().all(|f| f.is_intact()), "torn record");
+        let expected: Vec<_> = is_stored(&outcome)
+            .then_some(outcome.id())
+            .into_iter()
+            .collect();
+        let ids: Vec<_> = found.iter().map(|f| f.id()).collect();
+        assert_eq!(
+            ids, expected,
+            "a lookup at a record finds exactly it, if stored"
+        );
+    }
+    lost > 0
+}
+
+/// A lookup races with an insert that publishes a three-node chain (depth-1 to depth-3 nodes and
+/// the record) with one compare-and-swap. The lookup finds nothing, having visited the root alone,
+/// or the whole record, having visited the root and the whole chain: never part of a chain.
+/// Returns whether it found the record.
+pub fn lookup_races_a_deep_chain<O: Orderings>() -> bool {
+    let r = deep_a();
+    let cache = wf::<O>(CasFailure::Adopt);
+    let c = cache.clone();
+    let t = Go::race(move || insert_one(&*c, 1, r));
+    let (found, did) = lookup_at(&*cache, 0, r.position);
+    let whole = Work {
+        nodes: 1 + u64::from(DEEP),
+        records: 1,
+    };
+    let saw = match found.as_slice() {
+        [] => {
+            assert_eq!(
+                did,
+                Work {
+                    nodes: 1,
+                    records: 0
+                },
+                "a lookup that found nothing walked into a half-built chain"
+            );
+            false
+        }
+        [f] => {
+            assert!(f.is_intact(), "torn record");
+            assert_eq!(f.position, r.position, "phantom record");
+            assert_eq!(
+                did, whole,
+                "the record was found, but not through the whole chain"
+            );
+            true
+        }
+        more => panic!("{} records found, one inserted", more.len()),
+    };
+    t.join().unwrap();
+    let mut cache = Arc::try_unwrap(cache).expect("threads joined");
+    let shape = settled_shape(&mut cache);
+    assert_eq!(shape.reach(r.position), whole);
+    check_lookup(
+        "deep chain",
+        r.position,
+        did,
+        shape.reach(r.position),
+        false,
+    );
+    saw
+}
+
+/// Happens-before: an insert at depth 2 completes, then its thread sets a flag with Release; the
+/// main thread loads the flag with Acquire, then looks up at the record. If it saw the flag, the
+/// insert happens-before the lookup, and the lookup must find the record: nothing that
+/// happens-before a lookup is missed (the precise claim, in the C++ model). Returns whether the
+/// flag was seen.
+///
+/// With `existing`, another record was stored in the same depth-2 node before the threads
+/// started, so the insert appends to a published list (Reserve, then SlotPublish) instead of
+/// grafting a new chain. That is where the two Relaxed sites matter. The insert's `fetch_add` on
+/// the head (Reserve) happens-before the lookup's load of that head (HeadRead) through the
+/// flag, so by write-read coherence the load returns that value or a later one in the head's
+/// modification order, never an older one. The scan therefore covers the new slot. The slot's
+/// own Acquire load of its ready flag, which happens-after the Release store of it, sees `true`.
+/// An ordering makes a load see a store that happens-before it, not a store that does not, so
+/// nothing stronger than Relaxed is needed at either site. Without `existing`, the head is
+/// written in the private chain before the Release compare-and-swap that publishes it.
+pub fn an_insert_that_happens_before_a_lookup_is_found<O: Orderings>(existing: bool) -> bool {
+    let earlier = record_at_depth(2, 0.2);
+    let r = record_at_depth(2, 0.3);
+    let cache = wf::<O>(CasFailure::Adopt);
+    if existing {
+        insert_one(&*cache, 2, earlier);
+    }
+    let flag = Arc::new(AtomicBool::new(false));
+    let (c, f) = (cache.clone(), flag.clone());
+    let t = thread::spawn(move || {
+        insert_one(&*c, 1, r);
+        // Release: the insert, and everything before it in this thread, happens-before any
+        // Acquire load that reads this `true`.
+        f.store(true, Ordering::Release);
+    });
+    // Acquire: pairs with the Release store above.
+    let flagged = flag.load(Ordering::Acquire);
+    let (found, did) = lookup_at(&*cache, 0, r.position);
+    assert!(found.iter().all(|f| f.is_intact()), "torn record");
+    let has = |x: &Record| found.iter().any(|f| f.position == x.position);
+    if flagged {
+        assert!(
+            has(&r),
+            "an insert that happens-before the lookup was missed"
+        );
+    }
+    if existing {
+        assert!(
+            has(&earlier),
+            "a record stored before the threads started was missed"
+        );
+    }
+    t.join().unwrap();
+    let mut cache = Arc::try_unwrap(cache).expect("threads joined");
+    let shape = settled_shape(&mut cache);
+    check_lookup(
+        "happens-before",
+        r.position,
+        did,
+        shape.reach(r.position),
+        false,
+    );
+    flagged
 }

@@ -56,7 +56,7 @@ use super::frame::Ledger;
 use super::octree::{Cell, Octant, MAX_DEPTH};
 use super::{
     collect_valid, CacheConfig, CacheHandle, CacheStats, FrameReport, HandleCore, Inserted,
-    IrradianceCache, WorkerStats,
+    IrradianceCache, Work, WorkerStats,
 };
 use crate::ic::{InsertError, Interpolated, Record, WorkerId};
 use crate::sync::{fence, AtomicPtr, Ordering};
@@ -398,10 +398,12 @@ impl<O: Orderings> CacheHandle for WfHandle<'_, O> {
     #[inline]
     fn lookup(&mut self, point: Vec3, normal: Vec3) -> Option<Interpolated> {
         let mut acc = self.core.begin_lookup(&self.cache.config, point, normal)?;
+        let mut records = 0;
         let nodes = self.cache.visit(point, &mut |r| {
+            records += 1;
             acc.add(r);
         });
-        self.core.end_lookup(&acc, nodes)
+        self.core.end_lookup(&acc, Work { nodes, records })
     }
 
     fn insert(&mut self, record: Record) -> Result<Inserted, InsertError> {
@@ -422,9 +424,10 @@ impl<O: Orderings> CacheHandle for WfHandle<'_, O> {
 
     fn valid_records(&mut self, point: Vec3, normal: Vec3, out: &mut Vec<Record>) {
         let cache = self.cache;
-        collect_valid(&cache.config, point, normal, out, |p, f| {
+        let work = collect_valid(&cache.config, point, normal, out, |p, f| {
             cache.visit(p, &mut |r| f(r))
         });
+        self.core.traversed(work);
     }
 
     fn stats(&self) -> &WorkerStats {
