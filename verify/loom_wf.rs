@@ -149,3 +149,21 @@ fn stronger_policies_pass_the_same_models() {
         lookup_races_a_deep_chain::<ReadFence>();
     });
 }
+
+/// Under loom a list holds 2 + 4 + 8 = 14 slots; the fifteenth insert into one node is refused
+/// with `ListFull`, an error, not an index past the last segment.
+#[test]
+fn a_full_list_refuses_the_next_insert() {
+    use wfic::cache::{CacheHandle, Inserted, IrradianceCache, WaitFree};
+    use wfic::ic::{InsertError, WorkerId};
+    model(|| {
+        let cache = WaitFree::<Minimal>::new(loom_common::config(), CasFailure::Adopt);
+        let mut h = cache.handle(WorkerId::new(0));
+        for i in 0..14 {
+            let stored = h.insert(loom_common::root_record(i as f32 * 0.01));
+            assert!(matches!(stored, Ok(Inserted::Stored(_))), "{stored:?}");
+        }
+        let refused = h.insert(loom_common::root_record(0.5));
+        assert_eq!(refused, Err(InsertError::ListFull));
+    });
+}
