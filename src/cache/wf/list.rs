@@ -286,6 +286,20 @@ mod tests {
         }
     }
 
+    /// The leak tracker ([`crate::sync::Tracked`]) costs nothing outside loom: a slot is its flag
+    /// and its record, 136 bytes on 64-bit targets (so the first segment, 4 slots, stays within
+    /// glibc's per-thread cache of small blocks; see the module documentation).
+    #[test]
+    fn a_slot_is_its_flag_and_its_record() {
+        use std::mem::size_of;
+        assert_eq!(
+            size_of::<Slot>(),
+            size_of::<(AtomicBool, UnsafeCell<MaybeUninit<Record>>)>()
+        );
+        #[cfg(target_pointer_width = "64")]
+        assert_eq!(size_of::<Slot>(), 136);
+    }
+
     #[test]
     fn push_and_scan_across_segments() {
         let mut list = RecordList::<Minimal>::new();

@@ -408,3 +408,21 @@ impl<O: Orderings> CacheHandle for WfHandle<'_, O> {
         &self.core.stats
     }
 }
+
+#[cfg(all(test, not(checker)))]
+mod tests {
+    use super::*;
+    use std::mem::size_of;
+
+    /// The leak tracker ([`crate::sync::Tracked`]) costs nothing outside loom: a node is its eight
+    /// child pointers and its list, 568 bytes on 64-bit targets.
+    #[test]
+    fn a_node_is_its_children_and_its_list() {
+        assert_eq!(
+            size_of::<Node<Minimal>>(),
+            size_of::<[AtomicPtr<Node<Minimal>>; 8]>() + size_of::<RecordList<Minimal>>()
+        );
+        #[cfg(target_pointer_width = "64")]
+        assert_eq!(size_of::<Node<Minimal>>(), 568);
+    }
+}
