@@ -21,7 +21,7 @@
 
 use super::orderings::{ord, Orderings, Site};
 use crate::ic::Record;
-use crate::sync::{AtomicBool, AtomicPtr, AtomicUsize, Ordering, UnsafeCell};
+use crate::sync::{AtomicBool, AtomicPtr, AtomicUsize, Ordering, Tracked, UnsafeCell};
 use std::marker::PhantomData;
 use std::mem::MaybeUninit;
 use std::ptr;
@@ -63,13 +63,19 @@ struct Slot {
     ready: AtomicBool,
     /// Written once by the thread that reserved the slot, before `ready` is set.
     record: UnsafeCell<MaybeUninit<Record>>,
+    /// Under loom, a slot never freed — so a segment never freed — fails the model (`Allocation
+    /// leaked.`); zero-sized elsewhere.
+    _tracked: Tracked,
 }
 
 impl Slot {
+    /// An unwritten slot. Under loom a leak report names the caller's line (in `install`).
+    #[cfg_attr(feature = "loom", track_caller)]
     fn empty() -> Self {
         Self {
             ready: AtomicBool::new(false),
             record: UnsafeCell::new(MaybeUninit::uninit()),
+            _tracked: Tracked::new(),
         }
     }
 }

@@ -36,7 +36,7 @@ use super::{
     IrradianceCache, WorkerStats,
 };
 use crate::ic::{InsertError, Interpolated, Record, WorkerId};
-use crate::sync::{fence, AtomicPtr, Ordering};
+use crate::sync::{fence, AtomicPtr, Ordering, Tracked};
 use glam::Vec3;
 #[cfg(not(feature = "loom"))]
 use list::RecordList;
@@ -72,14 +72,19 @@ struct Node<O: Orderings> {
     records: RecordList<O>,
     /// The node owns its children as boxes (see the type's documentation).
     _owns: PhantomData<[Box<Node<O>>; 8]>,
+    /// Under loom, a node never freed fails the model (`Allocation leaked.`); zero-sized elsewhere.
+    _tracked: Tracked,
 }
 
 impl<O: Orderings> Node<O> {
+    /// A node with no child and an empty list. Under loom a leak report names the caller's line.
+    #[cfg_attr(feature = "loom", track_caller)]
     fn new() -> Self {
         Self {
             children: std::array::from_fn(|_| AtomicPtr::new(ptr::null_mut())),
             records: RecordList::new(),
             _owns: PhantomData,
+            _tracked: Tracked::new(),
         }
     }
 
