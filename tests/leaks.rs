@@ -13,10 +13,12 @@
 //! harness (`harness = false` in `Cargo.toml`): the checks run one after the other on the main
 //! thread, so no other test and no harness thread allocates while a round is measured.
 //!
-//! Environment: `WFIC_LEAKS_ROUNDS` (rounds per scheme, default 300); `WFIC_LEAKS_RACES=report`
-//! reports the races lost without requiring any (for valgrind, which runs one thread at a time and
-//! so rarely interleaves two inserts: `verify/valgrind-stress.sh`). With a single CPU available
-//! the races are reported only, too.
+//! Environment: `WFIC_LEAKS_ROUNDS` (rounds per scheme, default 300); `WFIC_LEAKS_YIELD=1` makes
+//! every allocation of a WF round yield the processor, which puts the other worker inside the
+//! window between a null read and the compare-and-swap on it (valgrind runs one thread at a time
+//! and switches only every 100 000 blocks or at a system call, so without it no race is ever lost
+//! there: `verify/valgrind-stress.sh` sets it); `WFIC_LEAKS_RACES=report` reports the races lost
+//! without requiring any. With a single CPU available the races are reported only, too.
 
 #[cfg(checker)]
 fn main() {
@@ -59,6 +61,8 @@ mod real {
     static SLOT_BYTES: AtomicU64 = AtomicU64::new(0);
     /// Allocations shaped like a list segment of 8 or more slots (a power of two), while tallied.
     static SEGMENT_ALLOCATIONS: AtomicU64 = AtomicU64::new(0);
+    /// Non-zero: every allocation yields the processor afterwards (`WFIC_LEAKS_YIELD=1`, WF rounds).
+    static YIELD_AFTER_ALLOCATING: AtomicU64 = AtomicU64::new(0);
 
     fn count_allocation(size: usize) {
         let size = size as u64;
@@ -70,6 +74,14 @@ mod real {
         let slot = SLOT_BYTES.load(Relaxed);
         if slot != 0 && size % slot == 0 && (size / slot).is_power_of_two() && size / slot >= 8 {
             SEGMENT_ALLOCATIONS.fetch_add(1, Relaxed);
+        }
+        if YIELD_AFTER_ALLOCATING.load(Relaxed) != 0 {
+            // WF allocates a private path (`graft`) or a segment (`install`) between reading a
+            // null pointer and its compare-and-swap on it: yielding there lets the other worker
+            // run into the same window. Under valgrind, which switches threads only every 100 000
+            // blocks or at a system call, this is what makes the races happen at all.
+            // (`sched_yield`: no allocation.)
+            std::thread::yield_now();
         }
     }
 
@@ -160,6 +172,10 @@ mod real {
     /// Whether the WF rounds must lose both kinds of race: yes, unless `WFIC_LEAKS_RACES=report`
     /// or this process may run on one CPU only (two threads then never run at once: pinned to
     /// one CPU with `taskset -c 0`, 400 rounds lost no race at all).
+    fn yield_after_allocating() -> bool {
+        std::env::var("WFIC_LEAKS_YIELD").is_ok_and(|v| v == "1")
+    }
+
     fn races_required() -> bool {
         let cpus = thread::available_parallelism().map_or(1, |n| n.get());
         std::env::var("WFIC_LEAKS_RACES").map_or(true, |v| v != "report") && cpus >= 2
@@ -335,7 +351,9 @@ mod real {
         let watch = matches!(scheme, Scheme::Wf | Scheme::WfDiscard);
         SEGMENT_ALLOCATIONS.store(0, Relaxed);
         SLOT_BYTES.store(if watch { slot } else { 0 }, Relaxed);
+        YIELD_AFTER_ALLOCATING.store(u64::from(watch && yield_after_allocating()), Relaxed);
         let r = scheme.build(config(), RaceJob { sequential });
+        YIELD_AFTER_ALLOCATING.store(0, Relaxed);
         SLOT_BYTES.store(0, Relaxed);
         assert_back_to(before, what);
         let expected = match scheme {
