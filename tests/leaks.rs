@@ -11,7 +11,9 @@
 //!
 //! `#[global_allocator]` is per binary, hence this dedicated test binary; and it has no libtest
 //! harness (`harness = false` in `Cargo.toml`): the checks run one after the other on the main
-//! thread, so no other test and no harness thread allocates while a round is measured.
+//! thread, so no other test and no harness thread allocates while a round is measured. Of
+//! libtest's arguments it understands name filters (`cargo test --release -- counter`) and runs
+//! nothing for `--ignored` or `--list`; the rest are ignored.
 //!
 //! Environment: `WFIC_LEAKS_ROUNDS` (rounds per scheme, default 300); `WFIC_LEAKS_YIELD=1` makes
 //! every allocation of a WF round yield the processor, which puts the other worker inside the
@@ -22,7 +24,7 @@
 
 #[cfg(checker)]
 fn main() {
-    // The real-thread checks need std threads: nothing to do under loom or shuttle.
+    println!("leaks: real threads only: nothing to run under loom or shuttle");
 }
 
 #[cfg(not(checker))]
@@ -435,25 +437,57 @@ mod real {
         }
     }
 
-    /// Runs the checks in order, on this thread.
+    /// The name filters among libtest-style arguments (`cargo test -- NAME`), and whether the
+    /// run asks for ignored tests or a list only (this binary has neither: it then runs nothing).
+    fn filters() -> (Vec<String>, bool) {
+        const TAKES_VALUE: [&str; 6] = [
+            "--test-threads",
+            "--skip",
+            "--color",
+            "--format",
+            "--logfile",
+            "-Z",
+        ];
+        let mut names = Vec::new();
+        let mut nothing = false;
+        let mut args = std::env::args().skip(1);
+        while let Some(arg) = args.next() {
+            if TAKES_VALUE.contains(&arg.as_str()) {
+                args.next();
+            } else if arg == "--ignored" || arg == "--list" {
+                nothing = true;
+            } else if !arg.starts_with('-') {
+                names.push(arg);
+            }
+        }
+        (names, nothing)
+    }
+
+    /// Runs the checks in order, on this thread (those whose name contains a filter, if any).
     pub fn main() {
+        let (names, nothing) = filters();
+        let selected = |name: &str| {
+            !nothing && (names.is_empty() || names.iter().any(|f| name.contains(f.as_str())))
+        };
         if !races_required() {
             println!(
                 "leaks: WF races are reported, not required (WFIC_LEAKS_RACES=report, or one CPU)"
             );
         }
         let run = |name: &str, f: &dyn Fn()| {
-            println!("leaks: {name} ...");
-            f();
-            println!("leaks: {name} ok");
+            if selected(name) {
+                println!("leaks: {name} ...");
+                f();
+                println!("leaks: {name} ok");
+            }
         };
         run(
             "the_counter_sees_one_forgotten_box",
             &the_counter_sees_one_forgotten_box,
         );
-        let slot = slot_bytes();
-        println!("leaks: a WF list slot is {slot} bytes (from the allocator)");
         run("every_scheme_frees_everything", &|| {
+            let slot = slot_bytes();
+            println!("leaks: a WF list slot is {slot} bytes (from the allocator)");
             every_scheme_frees_everything(slot)
         });
     }
