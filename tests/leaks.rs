@@ -191,9 +191,10 @@ mod real {
     /// Records per thread and round, of each kind.
     const PER_THREAD: u32 = 32;
 
-    /// The `i`-th deep record of thread `t`: radius 0.3 stores it at depth 3, in a cell of its own
-    /// among the deep records (the cells of side 2.02 at depth 3 are indexed by `i`), which thread
-    /// `1 - t` fills at the same time: the two race to create the missing nodes on its path.
+    /// The `i`-th deep record of thread `t`: radius 0.3 stores it at depth 4 (half-size 0.505),
+    /// inside a depth-3 cell (side 2.02) of its own among the deep records, in the same depth-4
+    /// cell as thread `1 - t`'s `i`-th record: the two race to create the missing nodes on its
+    /// path, down to four levels.
     fn deep(i: u32, t: u32) -> Record {
         let cell = |k: u32| -0.08 + (k as f32 + 0.5) * 2.02 + 0.25 + 0.01 * t as f32;
         let p = Vec3::new(cell(i % 8), cell(i / 8), cell((i * 5) % 8));
