@@ -44,17 +44,53 @@ mod imp {
 
 pub use imp::*;
 
+/// A leak tracker for an object the caches own through a raw pointer (a WF node, a slot of a WF
+/// list segment): embed one in the object, made with the object.
+///
+/// Under `loom` it is a [`loom::alloc::Track`]: loom registers it when it is made and marks it when
+/// it is dropped, and at the end of every execution fails the model with loom's report
+/// (`Allocation leaked.`, plus `Allocated: <file>:<line>` when `LOOM_LOCATION` is set) if one was
+/// never dropped. So an object that some schedule allocates and never frees (a private subtree a
+/// compare-and-swap loser forgets, a segment the loser of an install keeps) fails every loom model
+/// that reaches that schedule. Elsewhere it is zero-sized with alignment 1 (asserted below) and
+/// adds nothing to the object. Shuttle has no leak tracking.
+#[derive(Debug)]
+pub struct Tracked {
+    #[cfg(feature = "loom")]
+    _track: loom::alloc::Track<()>,
+}
+
+impl Tracked {
+    /// A tracker for an object being made (under loom, only inside a model). The location loom
+    /// reports is the caller's (`#[track_caller]` under loom; so are the constructors that make
+    /// one, so the report names where the node or segment was allocated).
+    #[cfg_attr(feature = "loom", track_caller)]
+    #[inline(always)]
+    #[allow(clippy::new_without_default)] // a tracker is made on purpose, with its object
+    pub fn new() -> Self {
+        Self {
+            #[cfg(feature = "loom")]
+            _track: loom::alloc::Track::new(()),
+        }
+    }
+}
+
+// Outside loom the tracker must cost nothing: no byte, no alignment, in any object that holds one.
+#[cfg(not(feature = "loom"))]
+const _: () = assert!(std::mem::size_of::<Tracked>() == 0 && std::mem::align_of::<Tracked>() == 1);
+
 /// Primitives the model checkers must *not* see: std's, whatever the feature. Only for
 /// instrumentation and bookkeeping that watch the checked code without taking part in its
-/// protocol: the linearizability recorder's clock, and the frame ledger of
+/// protocol: the linearizability recorder's clock, the frame ledger of
 /// [`crate::cache::frame`] (locked once when a handle is made and once when it is dropped, never
-/// on a lookup or an insert, and holding nothing that another worker reads during the frame).
+/// on a lookup or an insert, and holding nothing that another worker reads during the frame), and
+/// the tests' own bookkeeping (the leak tests' allocation counters and their serialising lock).
 /// Under loom or shuttle these are invisible: no schedule point, and no happens-before edge in
 /// the checker's view. A checker that cannot see an edge explores more executions, not fewer, so
 /// they cannot hide a bug. Never use them for data that workers exchange.
 pub mod unchecked {
     pub use std::sync::atomic::{AtomicU32, AtomicU64, Ordering};
-    pub use std::sync::Mutex;
+    pub use std::sync::{Mutex, MutexGuard};
 }
 pub use std::sync::{LockResult, PoisonError, TryLockError};
 

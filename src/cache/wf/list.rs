@@ -21,7 +21,7 @@
 
 use super::orderings::{ord, Orderings, Site};
 use crate::ic::Record;
-use crate::sync::{AtomicBool, AtomicPtr, AtomicUsize, Ordering, UnsafeCell};
+use crate::sync::{AtomicBool, AtomicPtr, AtomicUsize, Ordering, Tracked, UnsafeCell};
 use std::marker::PhantomData;
 use std::mem::MaybeUninit;
 use std::ptr;
@@ -63,13 +63,19 @@ struct Slot {
     ready: AtomicBool,
     /// Written once by the thread that reserved the slot, before `ready` is set.
     record: UnsafeCell<MaybeUninit<Record>>,
+    /// Under loom, a slot never freed — so a segment never freed — fails the model (`Allocation
+    /// leaked.`); zero-sized elsewhere.
+    _tracked: Tracked,
 }
 
 impl Slot {
+    /// An unwritten slot. Under loom a leak report names the caller's line (in `install`).
+    #[cfg_attr(feature = "loom", track_caller)]
     fn empty() -> Self {
         Self {
             ready: AtomicBool::new(false),
             record: UnsafeCell::new(MaybeUninit::uninit()),
+            _tracked: Tracked::new(),
         }
     }
 }
@@ -284,6 +290,20 @@ mod tests {
             }
             previous = here;
         }
+    }
+
+    /// The leak tracker ([`crate::sync::Tracked`]) costs nothing outside loom: a slot is its flag
+    /// and its record, 136 bytes on 64-bit targets (so the first segment, 4 slots, stays within
+    /// glibc's per-thread cache of small blocks; see the module documentation).
+    #[test]
+    fn a_slot_is_its_flag_and_its_record() {
+        use std::mem::size_of;
+        assert_eq!(
+            size_of::<Slot>(),
+            size_of::<(AtomicBool, UnsafeCell<MaybeUninit<Record>>)>()
+        );
+        #[cfg(target_pointer_width = "64")]
+        assert_eq!(size_of::<Slot>(), 136);
     }
 
     #[test]
