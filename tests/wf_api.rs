@@ -1,6 +1,7 @@
 //! WF's own accessors, counted exactly on a tree whose shape is known: the policy, the `Debug`
 //! output, and `stats`, `snapshot` and the frame report after a few inserts. (The model checkers
 //! cover WF's concurrency; these pin what a single thread reads back.)
+#![cfg(not(checker))]
 
 use glam::Vec3;
 use std::collections::HashSet;
