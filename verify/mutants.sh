@@ -26,7 +26,7 @@ if ! cargo mutants --version 2>/dev/null | grep -q "$version"; then
 fi
 
 common=(--in-place --profile mutants --no-shuffle --minimum-test-timeout 60)
-real_thread_suites=(--lib --test agreement --test stress --test robustness)
+real_thread_suites=(--lib --test agreement --test stress --test robustness --test leaks --test wf_api)
 
 # stage SCOPE FIRST? [cargo-mutants options...] -- [cargo test options...]
 stage() {
@@ -75,12 +75,12 @@ run_scope() {
     rm -rf "$root/results/mutants/$scope"
     case $scope in
         wf)
-            stage wf yes -f 'src/cache/wf/**' --features loom -- --test loom_wf --test loom_orderings
-            stage wf no -f 'src/cache/wf/**' -- "${real_thread_suites[@]}" --test leaks
+            stage wf yes -f 'src/cache/wf/**' --features loom -- --test loom_wf --test loom_orderings --test loom_leaks
+            stage wf no -f 'src/cache/wf/**' -- "${real_thread_suites[@]}"
             ;;
         cache)
             stage cache yes -f 'src/cache/*.rs' --features loom -- --test loom_lck_lw --test loom_wf
-            stage cache no -f 'src/cache/*.rs' -- "${real_thread_suites[@]}" --test leaks --test lincheck
+            stage cache no -f 'src/cache/*.rs' -- "${real_thread_suites[@]}" --test lincheck
             ;;
         ic)
             stage ic yes -f 'src/ic/**' -- --lib
