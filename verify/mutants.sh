@@ -7,8 +7,8 @@
 # Each scope runs as a cascade: every mutant is first tested against the fastest suite that can
 # catch it; only the mutants that survive go on (`cargo mutants --iterate`) to the next, slower
 # suite. A mutant is "missed" only if it survives every stage of its scope. The suites are the
-# ordinary ones (`cargo test`'s opt-level-1 profile without debug info, `mutants` in Cargo.toml,
-# which only builds faster); nothing is run that CI does not also run.
+# ordinary ones, built in `cargo test`'s own profile (opt-level 1), so the dependencies CI and
+# `cargo test` already built are reused; nothing runs that CI does not also run.
 #
 # Output: results/mutants/<scope>/ holds cargo-mutants' own files (caught.txt, missed.txt,
 # timeout.txt, unviable.txt, outcomes.json) of the last stage, with every stage's results
@@ -25,7 +25,7 @@ if ! cargo mutants --version 2>/dev/null | grep -q "$version"; then
     cargo install cargo-mutants --locked --version "$version"
 fi
 
-common=(--in-place --profile mutants --no-shuffle --minimum-test-timeout 60)
+common=(--in-place --no-shuffle --minimum-test-timeout 60)
 real_thread_suites=(--lib --test agreement --test stress --test robustness --test leaks --test wf_api)
 
 # stage SCOPE FIRST? [cargo-mutants options...] -- [cargo test options...]
