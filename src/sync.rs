@@ -47,7 +47,7 @@ pub use imp::*;
 /// A leak tracker for an object the caches own through a raw pointer (a WF node, a slot of a WF
 /// list segment): embed one in the object, made with the object.
 ///
-/// Under `loom` it is a [`loom::alloc::Track`]: loom registers it when it is made and marks it when
+/// Under `loom` it is a `loom::alloc::Track`: loom registers it when it is made and marks it when
 /// it is dropped, and at the end of every execution fails the model with loom's report
 /// (`Allocation leaked.`, plus `Allocated: <file>:<line>` when `LOOM_LOCATION` is set) if one was
 /// never dropped. So an object that some schedule allocates and never frees (a private subtree a

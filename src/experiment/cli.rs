@@ -22,7 +22,7 @@ pub enum ReproduceCommand {
     /// figure1.png and figure1.svg.
     Table1(Table1Args),
     /// Figures 2 and 3: the 360° orbit reusing the cache across frames, per scheme. Writes
-    /// animation-<scene>.csv, .md, .png and .svg.
+    /// animation-SCENE.csv, .md, .png and .svg.
     Animation(AnimationArgs),
 }
 

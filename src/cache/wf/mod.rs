@@ -19,7 +19,7 @@
 //! loop is over the tree's levels, a node's eight children, or a list's slots, and no
 //! compare-and-swap is ever retried. What bounds each part of an insert:
 //!
-//! * *By a constant* ([`MAX_DEPTH`](super::octree::MAX_DEPTH) = 16): the descent (one Acquire load
+//! * *By a constant* ([`MAX_DEPTH`] = 16): the descent (one Acquire load
 //!   per level) and the child compare-and-swaps (at most one per level: a lost one moves the insert
 //!   one level down, into the winner's child, or ends it under `Discard`). These are the `steps`
 //!   counted in [`WorkerStats::max_insert_steps`](super::WorkerStats), at most `2 * depth`; that
