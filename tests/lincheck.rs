@@ -622,3 +622,92 @@ fn torn_phantom_and_discarded_records_are_caught() {
         })
     );
 }
+
+fn lookup_at_p() -> CacheOp {
+    CacheOp::Lookup {
+        point: P,
+        normal: Vec3::Z,
+    }
+}
+
+fn found(ids: Vec<RecordId>) -> CacheRet {
+    CacheRet::Found { ids, torn: 0 }
+}
+
+#[test]
+fn a_record_returned_twice_is_caught() {
+    let a = id(1, 0);
+    let history = |seen: Vec<RecordId>| {
+        HistoryBuilder::new()
+            .call(
+                1,
+                CacheOp::Insert(deep_record(a)),
+                CacheRet::Inserted(Inserted::Stored(a)),
+            )
+            .call(0, lookup_at_p(), found(seen))
+            .build()
+    };
+    let twice = history(vec![a, a]);
+    assert_eq!(
+        check_set_consistency(&twice, &world()),
+        Err(SetViolation::Duplicate { lookup: 1, id: a })
+    );
+    assert!(check(&twice, &spec()).is_err());
+    let once = history(vec![a]);
+    assert_eq!(check_set_consistency(&once, &world()), Ok(()));
+    assert!(check(&once, &spec()).is_ok());
+}
+
+/// A broken cache whose lookups meet every valid record twice (as a record stored in two lists
+/// would be met).
+struct SeesDouble<H> {
+    inner: H,
+}
+
+impl<H: CacheHandle> CacheHandle for SeesDouble<H> {
+    fn worker(&self) -> WorkerId {
+        self.inner.worker()
+    }
+
+    fn lookup(&mut self, point: Vec3, normal: Vec3) -> Option<Interpolated> {
+        self.inner.lookup(point, normal)
+    }
+
+    fn insert(&mut self, record: Record) -> Result<Inserted, InsertError> {
+        self.inner.insert(record)
+    }
+
+    fn valid_records(&mut self, point: Vec3, normal: Vec3, out: &mut Vec<Record>) {
+        let start = out.len();
+        self.inner.valid_records(point, normal, out);
+        out.extend_from_within(start..);
+    }
+
+    fn stats(&self) -> &wfic::cache::WorkerStats {
+        self.inner.stats()
+    }
+}
+
+#[test]
+fn the_recorder_keeps_a_record_returned_twice() {
+    let cache = Locked::<MutexFlavour>::new(world());
+    let recorder = Recorder::new();
+    let inner = cache.handle(WorkerId::new(0));
+    let mut h = RecordingHandle::new(SeesDouble { inner }, recorder.log(0));
+    let stored = h.insert(deep_record(RecordId::default())).unwrap().id();
+    let (ids, torn) = h.lookup(P, Vec3::Z);
+    assert_eq!((ids, torn), (vec![stored, stored], 0));
+    let history = recorder.into_history([h.into_parts().1]);
+    assert_eq!(
+        history.operations()[1].ret,
+        Some(found(vec![stored, stored])),
+        "the log keeps both"
+    );
+    assert_eq!(
+        check_set_consistency(&history, &world()),
+        Err(SetViolation::Duplicate {
+            lookup: 1,
+            id: stored
+        })
+    );
+}

@@ -65,7 +65,8 @@ pub enum CacheRet {
     Rejected(InsertError),
     /// A lookup's valid records.
     Found {
-        /// Ids of the intact records valid at the query, sorted.
+        /// Ids of the intact records valid at the query, sorted; a record met twice is there
+        /// twice (the recorder does not deduplicate, so the checks can see it).
         ids: Vec<RecordId>,
         /// Records met that were not intact ([`Record::is_intact`]): torn reads. Always 0 in the
         /// specification.
@@ -209,7 +210,8 @@ pub fn lookup_observes(op: &CacheOp, ret: &CacheRet, other: &CacheOp) -> bool {
 /// A cache handle that records every insert and lookup in its thread's log.
 ///
 /// Lookups are answered by [`CacheHandle::valid_records`], one traversal of the cache like a
-/// lookup's, and recorded as the sorted ids of the intact records it met plus a count of torn ones.
+/// lookup's, and recorded as the sorted ids of the intact records it met (a record met twice is
+/// recorded twice) plus a count of torn ones.
 #[derive(Debug)]
 pub struct RecordingHandle<H> {
     handle: H,
@@ -245,7 +247,7 @@ impl<H: CacheHandle> RecordingHandle<H> {
     }
 
     /// Looks up the records valid at `point`/`normal`, recording the call and the ids found.
-    /// Returns the ids (sorted) and the number of torn records met.
+    /// Returns the ids (sorted, duplicates kept) and the number of torn records met.
     pub fn lookup(&mut self, point: Vec3, normal: Vec3) -> (Vec<RecordId>, usize) {
         self.log.invoke(CacheOp::Lookup { point, normal });
         self.scratch.clear();
@@ -305,6 +307,13 @@ pub enum SetViolation {
         /// The record's id.
         id: RecordId,
     },
+    /// A lookup returned the same record more than once (a set has each element once).
+    Duplicate {
+        /// The lookup.
+        lookup: usize,
+        /// The record's id.
+        id: RecordId,
+    },
     /// A lookup met torn records.
     Torn {
         /// The lookup.
@@ -328,6 +337,9 @@ impl fmt::Display for SetViolation {
                 f,
                 "lookup #{lookup} missed {id}, valid there, whose insert #{insert} returned before the lookup began"
             ),
+            Self::Duplicate { lookup, id } => {
+                write!(f, "lookup #{lookup} returned {id} more than once")
+            }
             Self::Torn { lookup, count } => write!(f, "lookup #{lookup} met {count} torn records"),
         }
     }
@@ -341,7 +353,7 @@ impl std::error::Error for SetViolation {}
 ///    lookup ended (no phantom, nothing from the future; a `Discarded` record is a phantom);
 /// 2. every record valid at its query whose insert returned `Stored` before the lookup began is
 ///    among those returned (nothing lost);
-/// 3. it met no torn record.
+/// 3. it met no torn record, and returned no record twice.
 ///
 /// Pending lookups are not checked; a pending insert cannot be matched (its id is unknown), so a
 /// record seen from one is reported as a phantom.
@@ -374,7 +386,17 @@ pub fn check_set_consistency(
                 count: *torn,
             });
         }
-        for &id in ids {
+        // The recorder sorts the ids (and keeps duplicates); sort a copy anyway, so that a
+        // hand-built result in another order is judged the same.
+        let mut ids = ids.clone();
+        ids.sort_unstable();
+        if let Some(pair) = ids.windows(2).find(|pair| pair[0] == pair[1]) {
+            return Err(SetViolation::Duplicate {
+                lookup,
+                id: pair[0],
+            });
+        }
+        for &id in &ids {
             let Some(&insert) = stored.get(&id) else {
                 return Err(SetViolation::Phantom { lookup, id });
             };
