@@ -15,8 +15,8 @@ use wfic::cache::{
 };
 use wfic::ic::{InsertError, Interpolated, Record, RecordId, WorkerId};
 use wfic::lincheck::{
-    check, check_set_consistency, shrink, shrink_nonlinearizable, CacheOp, CacheRet, CacheSpec,
-    History, HistoryBuilder, Recorder, RecordingHandle, SetViolation,
+    self, check, check_set_consistency, shrink, shrink_nonlinearizable, CacheOp, CacheRet,
+    CacheSpec, History, HistoryBuilder, Recorder, RecordingHandle, SetViolation, Specification,
 };
 use wfic::rng::Rng;
 
@@ -207,12 +207,12 @@ fn wf_histories_under_the_full_check() {
 /// tree, both valid at `P` with normal +Z.
 const P: Vec3 = Vec3::new(3.0, 3.0, 3.0);
 
-fn root_record(id: RecordId) -> Record {
-    Record::new(P + Vec3::X * 0.01, Vec3::Z, Vec3::ONE, 8.0).sealed(id)
+fn root_record() -> Record {
+    Record::new(P + Vec3::X * 0.01, Vec3::Z, Vec3::ONE, 8.0)
 }
 
-fn deep_record(id: RecordId) -> Record {
-    Record::new(P - Vec3::X * 0.01, Vec3::Z, Vec3::ONE, 0.3).sealed(id)
+fn deep_record() -> Record {
+    Record::new(P - Vec3::X * 0.01, Vec3::Z, Vec3::ONE, 0.3)
 }
 
 fn id(worker: u32, seq: u64) -> RecordId {
@@ -245,12 +245,12 @@ fn wf_counterexample() -> CacheHistory {
         )
         .call(
             1,
-            CacheOp::Insert(root_record(a)),
+            CacheOp::insert(a, root_record()),
             CacheRet::Inserted(Inserted::Stored(a)),
         )
         .call(
             2,
-            CacheOp::Insert(deep_record(b)),
+            CacheOp::insert(b, deep_record()),
             CacheRet::Inserted(Inserted::Stored(b)),
         )
         .ret(
@@ -268,11 +268,11 @@ fn wf_lookup_is_not_linearizable_hand_built_schedule() {
     // The records really are where the schedule says: A alone makes the root's list, B a path.
     let mut cache = WaitFree::<wfic::cache::wf::Minimal>::new(world(), CasFailure::Adopt);
     let mut w = cache.handle(WorkerId::new(1));
-    w.insert(root_record(id(1, 0))).unwrap();
+    w.insert(root_record()).unwrap();
     drop(w);
     assert_eq!(cache.stats().nodes, 1, "A is stored in the root");
     let mut w = cache.handle(WorkerId::new(2));
-    w.insert(deep_record(id(2, 0))).unwrap();
+    w.insert(deep_record()).unwrap();
     drop(w);
     assert!(cache.stats().nodes > 2, "B is stored below the root");
     let mut w = cache.handle(WorkerId::new(0));
@@ -470,7 +470,7 @@ fn a_cache_that_drops_inserts_is_caught_and_shrunk() {
     // Minimal: the dropped insert, returned, then a lookup that misses it.
     assert_eq!(small.len(), 2, "{text}");
     assert!(
-        matches!(small.operations()[0].op, CacheOp::Insert(_)),
+        matches!(small.operations()[0].op, CacheOp::Insert { .. }),
         "{text}"
     );
     assert!(small.operations()[0].precedes(&small.operations()[1]));
@@ -500,7 +500,7 @@ fn a_record_seen_before_its_insert_began_is_caught() {
         )
         .call(
             1,
-            CacheOp::Insert(deep_record(a)),
+            CacheOp::insert(a, deep_record()),
             CacheRet::Inserted(Inserted::Stored(a)),
         )
         .build();
@@ -522,7 +522,7 @@ fn a_record_seen_before_its_insert_began_is_caught() {
                 normal: Vec3::Z,
             },
         )
-        .invoke(1, CacheOp::Insert(deep_record(a)))
+        .invoke(1, CacheOp::insert(a, deep_record()))
         .ret(
             0,
             CacheRet::Found {
@@ -546,7 +546,7 @@ fn torn_phantom_and_discarded_records_are_caught() {
     let torn = HistoryBuilder::new()
         .call(
             1,
-            CacheOp::Insert(deep_record(a)),
+            CacheOp::insert(a, deep_record()),
             CacheRet::Inserted(Inserted::Stored(a)),
         )
         .call(
@@ -586,7 +586,7 @@ fn torn_phantom_and_discarded_records_are_caught() {
         HistoryBuilder::new()
             .call(
                 1,
-                CacheOp::Insert(deep_record(a)),
+                CacheOp::insert(a, deep_record()),
                 CacheRet::Inserted(Inserted::Discarded(a)),
             )
             .call(0, lookup(), CacheRet::Found { ids: seen, torn: 0 })
@@ -600,7 +600,7 @@ fn torn_phantom_and_discarded_records_are_caught() {
     let lost = HistoryBuilder::new()
         .call(
             1,
-            CacheOp::Insert(deep_record(a)),
+            CacheOp::insert(a, deep_record()),
             CacheRet::Inserted(Inserted::Stored(a)),
         )
         .call(
@@ -641,7 +641,7 @@ fn a_record_returned_twice_is_caught() {
         HistoryBuilder::new()
             .call(
                 1,
-                CacheOp::Insert(deep_record(a)),
+                CacheOp::insert(a, deep_record()),
                 CacheRet::Inserted(Inserted::Stored(a)),
             )
             .call(0, lookup_at_p(), found(seen))
@@ -694,7 +694,7 @@ fn the_recorder_keeps_a_record_returned_twice() {
     let recorder = Recorder::new();
     let inner = cache.handle(WorkerId::new(0));
     let mut h = RecordingHandle::new(SeesDouble { inner }, recorder.log(0));
-    let stored = h.insert(deep_record(RecordId::default())).unwrap().id();
+    let stored = h.insert(deep_record()).unwrap().id();
     let (ids, torn) = h.lookup(P, Vec3::Z);
     assert_eq!((ids, torn), (vec![stored, stored], 0));
     let history = recorder.into_history([h.into_parts().1]);
@@ -710,4 +710,172 @@ fn the_recorder_keeps_a_record_returned_twice() {
             id: stored
         })
     );
+}
+
+/// Worker 1's insert of B, invoked and never returned: its id is unknown.
+fn pending_b() -> CacheOp {
+    CacheOp::insert_unknown(WorkerId::new(1), deep_record())
+}
+
+/// A pending insert is not worker 0's first record: before ids could be unknown, a pending insert
+/// was logged with the default id, which is `r0.0.0`.
+#[test]
+fn a_pending_insert_is_no_real_record() {
+    let r000 = id(0, 0);
+    assert_eq!(
+        r000,
+        RecordId::default(),
+        "the id the old representation used"
+    );
+    let pending = pending_b();
+    assert_ne!(
+        pending,
+        CacheOp::insert(r000, deep_record()),
+        "unknown is not r0.0.0"
+    );
+    assert_eq!(
+        format!("{pending:?}"),
+        "insert r1.? (2.99,3.00,3.00) R=0.30"
+    );
+    // The shrinker's view: a lookup that saw r0.0.0 did not see worker 1's pending insert, and
+    // forgetting that insert leaves its result alone.
+    let mut ret = found(vec![r000]);
+    assert!(!lincheck::lookup_observes(&lookup_at_p(), &ret, &pending));
+    assert!(CacheSpec::forget(&lookup_at_p(), &mut ret, &pending));
+    assert_eq!(ret, found(vec![r000]));
+    // One that returned an id of worker 1 may have seen it: it goes with the insert.
+    let mut ret = found(vec![r000, id(1, 0)]);
+    assert!(lincheck::lookup_observes(&lookup_at_p(), &ret, &pending));
+    assert!(!CacheSpec::forget(&lookup_at_p(), &mut ret, &pending));
+    // A known insert is forgotten by id, as before.
+    let mut ret = found(vec![r000, id(1, 0)]);
+    assert!(CacheSpec::forget(
+        &lookup_at_p(),
+        &mut ret,
+        &CacheOp::insert(r000, deep_record())
+    ));
+    assert_eq!(ret, found(vec![id(1, 0)]));
+}
+
+#[test]
+fn a_record_only_a_pending_insert_explains_is_its_workers() {
+    // Worker 1's insert of B is pending; a lookup, later, returns a record of worker 1 that no
+    // insert of the history carries: B, visible before its insert returned (as WF allows).
+    let seen = |ids: Vec<RecordId>| {
+        HistoryBuilder::new()
+            .invoke(1, pending_b())
+            .call(0, lookup_at_p(), found(ids))
+            .build()
+    };
+    // Worker 0's first record (r0.0.0, the old stand-in for an unknown id) is not worker 1's
+    // pending insert's.
+    let other = seen(vec![id(0, 0)]);
+    assert_eq!(
+        check_set_consistency(&other, &world()),
+        Err(SetViolation::Phantom {
+            lookup: 1,
+            id: id(0, 0)
+        })
+    );
+    assert!(check(&other, &spec()).is_err());
+    // Worker 1's is.
+    let ok = seen(vec![id(1, 0)]);
+    assert_eq!(check_set_consistency(&ok, &world()), Ok(()));
+    assert_eq!(check(&ok, &spec()), Ok(vec![0, 1]));
+    // One pending insert stores one record, not two.
+    let two = seen(vec![id(1, 0), id(1, 1)]);
+    assert!(matches!(
+        check_set_consistency(&two, &world()),
+        Err(SetViolation::Phantom { lookup: 1, .. })
+    ));
+    assert!(check(&two, &spec()).is_err());
+    // Nor one record per lookup: two lookups naming it differently.
+    let renamed = HistoryBuilder::new()
+        .invoke(1, pending_b())
+        .call(0, lookup_at_p(), found(vec![id(1, 0)]))
+        .call(2, lookup_at_p(), found(vec![id(1, 7)]))
+        .build();
+    assert!(matches!(
+        check_set_consistency(&renamed, &world()),
+        Err(SetViolation::Phantom { .. })
+    ));
+    assert!(check(&renamed, &spec()).is_err());
+    // A pending insert invoked after the lookup ended explains nothing.
+    let late = HistoryBuilder::new()
+        .call(0, lookup_at_p(), found(vec![id(1, 0)]))
+        .invoke(1, pending_b())
+        .build();
+    assert_eq!(
+        check_set_consistency(&late, &world()),
+        Err(SetViolation::Phantom {
+            lookup: 0,
+            id: id(1, 0)
+        })
+    );
+    assert!(check(&late, &spec()).is_err());
+    // An id an insert of the history carries is that insert's: a discarded record stays a phantom
+    // even when its worker has a pending insert.
+    let d = id(1, 0);
+    let discarded = HistoryBuilder::new()
+        .call(
+            1,
+            CacheOp::insert(d, deep_record()),
+            CacheRet::Inserted(Inserted::Discarded(d)),
+        )
+        .invoke(1, pending_b())
+        .call(0, lookup_at_p(), found(vec![d]))
+        .build();
+    assert_eq!(
+        check_set_consistency(&discarded, &world()),
+        Err(SetViolation::Phantom { lookup: 2, id: d })
+    );
+    assert!(check(&discarded, &spec()).is_err());
+    // With a fresh id, the same history is fine.
+    let fresh = HistoryBuilder::new()
+        .call(
+            1,
+            CacheOp::insert(d, deep_record()),
+            CacheRet::Inserted(Inserted::Discarded(d)),
+        )
+        .invoke(1, pending_b())
+        .call(0, lookup_at_p(), found(vec![id(1, 1)]))
+        .build();
+    assert_eq!(check_set_consistency(&fresh, &world()), Ok(()));
+    assert!(check(&fresh, &spec()).is_ok());
+}
+
+/// The specification names a pending insert's record with the first id a lookup gives it, and
+/// holds later lookups to that name.
+#[test]
+fn a_pending_insert_once_seen_keeps_its_name() {
+    let x = id(1, 0);
+    let then = |later: Vec<RecordId>| {
+        HistoryBuilder::new()
+            .invoke(1, pending_b())
+            .call(0, lookup_at_p(), found(vec![x]))
+            .call(2, lookup_at_p(), found(later))
+            .build()
+    };
+    assert!(check(&then(vec![x]), &spec()).is_ok());
+    // Seen, then gone: the lookup at thread 2 began after thread 0's returned.
+    let gone = then(vec![]);
+    let failure = check(&gone, &spec()).unwrap_err();
+    assert_eq!(
+        failure.longest,
+        vec![0, 1],
+        "{}",
+        gone.render(Some(&failure))
+    );
+    // Removing the pending insert takes the lookup that may have seen it along, so the shrunk
+    // history keeps all three.
+    let (small, _) = shrink_nonlinearizable(&gone, &spec());
+    assert_eq!(small.len(), 3, "{}", small.render(None));
+    // Not seen by a lookup that ended before another saw it: the insert took effect in between.
+    let unseen_first = HistoryBuilder::new()
+        .invoke(1, pending_b())
+        .call(2, lookup_at_p(), found(vec![]))
+        .call(0, lookup_at_p(), found(vec![x]))
+        .build();
+    assert!(check(&unseen_first, &spec()).is_ok());
+    assert_eq!(check_set_consistency(&unseen_first, &world()), Ok(()));
 }
