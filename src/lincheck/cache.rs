@@ -28,7 +28,7 @@ use super::{History, Specification, ThreadLog};
 use crate::cache::{CacheConfig, CacheHandle, Inserted};
 use crate::ic::{self, InsertError, Record, RecordId, WorkerId};
 use glam::Vec3;
-use std::collections::HashMap;
+use std::collections::{BTreeMap, HashMap};
 use std::fmt;
 use std::hash::{Hash, Hasher};
 use std::sync::Arc;
@@ -555,6 +555,16 @@ pub enum SetViolation {
         /// The record's id.
         id: RecordId,
     },
+    /// A lookup missed a record valid at its query that an earlier lookup of the same thread
+    /// returned: reads are not monotonic.
+    Forgotten {
+        /// The earlier lookup (the latest of the thread that returned the record).
+        earlier: usize,
+        /// The later lookup.
+        later: usize,
+        /// The record's id.
+        id: RecordId,
+    },
     /// A lookup returned the same record more than once (a set has each element once).
     Duplicate {
         /// The lookup.
@@ -585,6 +595,10 @@ impl fmt::Display for SetViolation {
                 f,
                 "lookup #{lookup} missed {id}, valid there, whose insert #{insert} returned before the lookup began"
             ),
+            Self::Forgotten { earlier, later, id } => write!(
+                f,
+                "lookup #{later} missed {id}, valid there, which lookup #{earlier} of the same thread returned"
+            ),
             Self::Duplicate { lookup, id } => {
                 write!(f, "lookup #{lookup} returned {id} more than once")
             }
@@ -602,7 +616,11 @@ impl std::error::Error for SetViolation {}
 ///    may be a pending insert's, by the rule below;
 /// 2. every record valid at its query whose insert returned `Stored` before the lookup began is
 ///    among those returned (nothing lost);
-/// 3. it met no torn record, and returned no record twice.
+/// 3. it met no torn record, and returned no record twice;
+/// 4. every record an earlier lookup of the same thread returned that is valid at its query is
+///    among those returned (reads are monotonic per thread: nothing is forgotten). The caches
+///    have no removal; one that had would exempt here, as in 2, the records removed by an
+///    operation that began before the lookup ended.
 ///
 /// Pending lookups are not checked. A pending insert whose id is unknown ([`InsertId::Unknown`]:
 /// invoked, never returned) may have stored its record (a WF record is visible before its insert
@@ -694,6 +712,17 @@ pub fn check_set_consistency(
             }
         }
     }
+    // The inserted record behind an id that passed the phantom check: its insert's, or the
+    // pending insert's that adopted it.
+    let record_of = |id: RecordId| {
+        let k = named.get(&id).or_else(|| adopted.get(&id));
+        match k.map(|&k| &ops[k].op) {
+            Some(CacheOp::Insert { record, .. }) => record,
+            _ => unreachable!("{id} passed the phantom check"),
+        }
+    };
+    // Per thread, every id its lookups returned so far, with the latest lookup that returned it.
+    let mut seen: HashMap<usize, BTreeMap<RecordId, usize>> = HashMap::new();
     let a = config.accuracy();
     for (lookup, o, point, normal, ids, torn, end) in lookups() {
         if torn > 0 {
@@ -731,21 +760,37 @@ pub fn check_set_consistency(
                 }
             }
         }
-        if !ic::is_valid_query(point, normal) {
-            continue;
-        }
-        for &insert in &stored {
-            let CacheOp::Insert { record, id } = &ops[insert].op else {
-                unreachable!("only inserts are indexed")
-            };
-            let id = id.known().expect("a stored insert carries its id");
-            if ops[insert].precedes(o)
-                && ic::valid_weight(record, point, normal, a).is_some()
-                && ids.binary_search(&id).is_err()
-            {
-                return Err(SetViolation::Lost { lookup, insert, id });
+        let mine = seen.entry(o.thread).or_default();
+        if ic::is_valid_query(point, normal) {
+            for &insert in &stored {
+                let CacheOp::Insert { record, id } = &ops[insert].op else {
+                    unreachable!("only inserts are indexed")
+                };
+                let id = id.known().expect("a stored insert carries its id");
+                if ops[insert].precedes(o)
+                    && ic::valid_weight(record, point, normal, a).is_some()
+                    && ids.binary_search(&id).is_err()
+                {
+                    return Err(SetViolation::Lost { lookup, insert, id });
+                }
+            }
+            // Monotonic reads. No operation removes a record yet. When one does (eviction), a
+            // record removed by an operation that began before this lookup ended may vanish
+            // legitimately: it must be exempted here (and from `Lost` above), e.g. by taking it
+            // out of the thread's `seen` when the removal is met, before such histories are checked.
+            for (&id, &earlier) in mine.iter() {
+                if ic::valid_weight(record_of(id), point, normal, a).is_some()
+                    && ids.binary_search(&id).is_err()
+                {
+                    return Err(SetViolation::Forgotten {
+                        earlier,
+                        later: lookup,
+                        id,
+                    });
+                }
             }
         }
+        mine.extend(ids.iter().map(|&id| (id, lookup)));
     }
     Ok(())
 }

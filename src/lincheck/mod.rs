@@ -16,8 +16,9 @@
 //! * **Set consistency.** [`check_set_consistency`] is the weaker property a cache may satisfy
 //!   without being linearizable: every record a lookup returns was inserted by an insert that began
 //!   before the lookup ended (a pending insert, whose id is unknown, may explain one record of its
-//!   worker); every matching insert that returned before the lookup began is seen; nothing is torn
-//!   or returned twice.
+//!   worker); every matching insert that returned before the lookup began is seen; a record a
+//!   thread's lookup saw is seen by the thread's later lookups where it is valid (reads are
+//!   monotonic per thread); nothing is torn or returned twice.
 //! * **Failures** are shrunk by [`shrink`] to a history no single operation of which can be removed
 //!   while it still fails, and printed by [`History::render`] with threads as columns and the longest
 //!   partial linearization the search reached.
