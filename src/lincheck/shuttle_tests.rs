@@ -154,13 +154,17 @@ fn monotonic_obligations(h: &History<CacheOp, CacheRet>) -> u64 {
     n
 }
 
+/// Every WF history of the scenario is set-consistent; shuttle finds non-linearizable ones (at
+/// least one asserted; how many of the schedules is printed: an exact count would break on harmless
+/// changes that move schedule points), and every one of them shrinks to the 3-operation shape.
 #[test]
 fn shuttle_wf_is_set_consistent_but_not_linearizable() {
     let violations = std::sync::Arc::new(AtomicU64::new(0));
     let counted = std::sync::Arc::clone(&violations);
     let example = std::sync::Arc::new(std::sync::Mutex::new(None::<String>));
     let keep = std::sync::Arc::clone(&example);
-    Runner::new(PctScheduler::new_from_seed(11, 3, 500), Config::new()).run(move || {
+    let schedules = 500;
+    Runner::new(PctScheduler::new_from_seed(11, 3, schedules), Config::new()).run(move || {
         let h = scenario(WaitFree::<crate::cache::wf::Minimal>::new(
             world(),
             CasFailure::Adopt,
@@ -181,7 +185,7 @@ fn shuttle_wf_is_set_consistent_but_not_linearizable() {
     let found = violations.load(Ordering::Relaxed);
     let example = example.lock().unwrap().take();
     println!(
-        "WF under shuttle PCT (seed 11, depth 3): {found} of 500 schedules not linearizable, each \
+        "WF under shuttle PCT (seed 11, depth 3): {found} of {schedules} schedules not linearizable, each \
          shrunk to (lookup, root insert, deep insert)"
     );
     assert!(
@@ -227,7 +231,8 @@ impl<H: crate::cache::CacheHandle> crate::cache::CacheHandle for YieldsBeforeRet
 fn shuttle_wf_reads_are_monotonic_per_thread() {
     let obligations = std::sync::Arc::new(AtomicU64::new(0));
     let obliged = std::sync::Arc::clone(&obligations);
-    Runner::new(PctScheduler::new_from_seed(13, 3, 300), Config::new()).run(move || {
+    let schedules = 300;
+    Runner::new(PctScheduler::new_from_seed(13, 3, schedules), Config::new()).run(move || {
         let cache = Arc::new(WaitFree::<crate::cache::wf::Minimal>::new(
             world(),
             CasFailure::Adopt,
@@ -261,8 +266,118 @@ fn shuttle_wf_reads_are_monotonic_per_thread() {
     });
     let obligations = obligations.load(Ordering::Relaxed);
     println!(
-        "WF under shuttle PCT (seed 13, depth 3), 300 schedules: {obligations} monotonic-read \
+        "WF under shuttle PCT (seed 13, depth 3), {schedules} schedules: {obligations} monotonic-read \
          obligations beyond the no-loss rule, all met"
     );
     assert!(obligations >= 1, "the schedules must exercise the rule");
+}
+
+/// The second minimal WF violation: exactly two lookups and two overlapping inserts, the root
+/// insert of A and the deep insert of B, both `Stored`; one lookup returned exactly {B}, the other
+/// exactly {A}. They disagree on the order of A and B, and each three-operation part of it is
+/// linearizable. `Err` says why not.
+fn lookups_disagree(h: &History<CacheOp, CacheRet>) -> Result<(), String> {
+    let ops = h.operations();
+    if ops.len() != 4 {
+        return Err(format!("{} operations", ops.len()));
+    }
+    let stored = |r: Record| {
+        ops.iter().find_map(|o| match (&o.op, &o.ret) {
+            (
+                CacheOp::Insert {
+                    record,
+                    id: InsertId::Known(id),
+                },
+                Some(CacheRet::Inserted(Inserted::Stored(_))),
+            ) if record.position == r.position && record.radius == r.radius => Some((o, *id)),
+            _ => None,
+        })
+    };
+    let (Some((root, a)), Some((deep, b))) = (stored(a()), stored(b())) else {
+        return Err("not a stored root insert and a stored deep insert".into());
+    };
+    if root.precedes(deep) || deep.precedes(root) {
+        return Err("the inserts do not overlap".into());
+    }
+    let mut seen: Vec<Vec<RecordId>> = ops
+        .iter()
+        .filter_map(|o| match (&o.op, &o.ret) {
+            (CacheOp::Lookup { .. }, Some(CacheRet::Found { ids, torn: 0 })) => Some(ids.clone()),
+            _ => None,
+        })
+        .collect();
+    seen.sort();
+    let mut expected = vec![vec![a], vec![b]];
+    expected.sort();
+    if seen == expected {
+        Ok(())
+    } else {
+        Err(format!("the lookups returned {seen:?}"))
+    }
+}
+
+/// The 3-operation shape is not the only minimal WF violation. Two lookups and two concurrent
+/// inserts (threads 0 and 1 look up at P, thread 2 inserts A, thread 3 inserts B): besides the
+/// 3-operation shape (when A returned before B began), some violations need all four operations,
+/// one lookup seeing only B and the other only A. Every violation found shrinks to one of the two,
+/// and both are found (fixed seed; the counts are printed).
+#[test]
+fn shuttle_wf_violations_shrink_to_one_of_two_shapes() {
+    let counts = std::sync::Arc::new([AtomicU64::new(0), AtomicU64::new(0)]);
+    let counted = std::sync::Arc::clone(&counts);
+    let example = std::sync::Arc::new(std::sync::Mutex::new(None::<String>));
+    let keep = std::sync::Arc::clone(&example);
+    let schedules = 20_000;
+    Runner::new(PctScheduler::new_from_seed(17, 8, schedules), Config::new()).run(move || {
+        let cache = Arc::new(WaitFree::<crate::cache::wf::Minimal>::new(
+            world(),
+            CasFailure::Adopt,
+        ));
+        let recorder = Recorder::new();
+        let workers: Vec<_> = (0..4usize)
+            .map(|t| {
+                let (cache, log) = (Arc::clone(&cache), recorder.log(t));
+                thread::spawn(move || {
+                    let mut h = RecordingHandle::new(cache.handle(WorkerId::new(t as u32)), log);
+                    match t {
+                        0 | 1 => drop(h.lookup(P, Vec3::Z)),
+                        2 => drop(h.insert(a()).unwrap()),
+                        _ => drop(h.insert(b()).unwrap()),
+                    }
+                    h.into_parts().1
+                })
+            })
+            .collect();
+        let logs: Vec<_> = workers.into_iter().map(|w| w.join().unwrap()).collect();
+        let h = recorder.into_history(logs);
+        if let Err(v) = check_set_consistency(&h, &world()) {
+            panic!("WF under shuttle: {v}\n{}", h.render(None));
+        }
+        if check(&h, &CacheSpec::new(world())).is_err() {
+            let (small, f) = shrink_nonlinearizable(&h, &CacheSpec::new(world()));
+            let text = small.render(Some(&f));
+            match (root_missed_deep_seen(&small), lookups_disagree(&small)) {
+                (Ok(()), _) => counted[0].fetch_add(1, Ordering::Relaxed),
+                (_, Ok(())) => {
+                    keep.lock().unwrap().get_or_insert(text);
+                    counted[1].fetch_add(1, Ordering::Relaxed)
+                }
+                (Err(e3), Err(e4)) => {
+                    panic!("a WF violation of neither shape ({e3}; {e4}):\n{text}")
+                }
+            };
+        }
+    });
+    let (three, four) = (
+        counts[0].load(Ordering::Relaxed),
+        counts[1].load(Ordering::Relaxed),
+    );
+    let example = example.lock().unwrap().take();
+    println!(
+        "WF, 2 lookups and 2 concurrent inserts, shuttle PCT (seed 17, depth 8), {schedules} schedules: \
+         {three} violations shrunk to the 3-operation shape, {four} to the 4-operation one"
+    );
+    assert!(three >= 1, "the 3-operation shape is found");
+    assert!(four >= 1, "the 4-operation shape is found");
+    println!("{}", example.expect("four >= 1"));
 }
