@@ -518,8 +518,9 @@ impl<H: CacheHandle> RecordingHandle<H> {
         &mut self.handle
     }
 
-    /// The handle and the log, for [`Recorder::into_history`](super::Recorder::into_history) and
-    /// [`CacheHandle::finish`].
+    /// The handle and the log: the log for
+    /// [`Recorder::into_history`](super::Recorder::into_history), the handle to keep using or to
+    /// drop (which hands its state back to the cache).
     pub fn into_parts(self) -> (H, ThreadLog<CacheOp, CacheRet>) {
         (self.handle, self.log)
     }
