@@ -12,22 +12,76 @@
 //! `Discarded` insert is a no-op (the record must then never be seen), a `Stored` one adds the
 //! record. Likewise an insert refused with `InsertError::ListFull` (only under loom) is a no-op.
 //!
+//! **Pending inserts.** A record's id is chosen by the cache and known only when the insert
+//! returns, so an insert that was invoked and never returned carries [`InsertId::Unknown`]: its
+//! worker, and no id (no real id can be mistaken for it). Such an insert may still have taken
+//! effect (a WF record is visible before its insert returns). The specification then holds its
+//! record unnamed; the first lookup that must see it (it is valid at the query) names it with the
+//! one id the lookup returned that no named record explains, which must be an id of the insert's
+//! worker that no other insert was given (an insert that returns with it later then fails). Later
+//! lookups are held to that name. The set-consistency check follows the same rule
+//! ([`check_set_consistency`]).
+//!
 //! [`BruteForce::valid_records`]: crate::cache::BruteForce::valid_records
 
 use super::{History, Specification, ThreadLog};
 use crate::cache::{CacheConfig, CacheHandle, Inserted};
-use crate::ic::{self, InsertError, Record, RecordId};
+use crate::ic::{self, InsertError, Record, RecordId, WorkerId};
 use glam::Vec3;
-use std::collections::HashMap;
+use std::collections::{BTreeMap, HashMap};
 use std::fmt;
 use std::hash::{Hash, Hasher};
 use std::sync::Arc;
 
+/// The id of an inserted record, as far as the history knows it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum InsertId {
+    /// The id the cache gave the record: the insert returned it.
+    Known(RecordId),
+    /// Not known: the insert never returned (it is pending), or it was refused and got none. Only
+    /// the worker that asked is known. Equal to no [`InsertId::Known`], whatever its id.
+    Unknown(WorkerId),
+}
+
+impl InsertId {
+    /// The id, when known.
+    pub fn known(self) -> Option<RecordId> {
+        match self {
+            Self::Known(id) => Some(id),
+            Self::Unknown(_) => None,
+        }
+    }
+
+    /// The worker that inserted (or asked to insert) the record.
+    pub fn worker(self) -> WorkerId {
+        match self {
+            Self::Known(id) => id.worker(),
+            Self::Unknown(worker) => worker,
+        }
+    }
+}
+
+impl fmt::Display for InsertId {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::Known(id) => write!(f, "{id}"),
+            Self::Unknown(worker) => write!(f, "r{}.?", worker.index()),
+        }
+    }
+}
+
 /// A cache operation.
 #[derive(Clone, Copy, PartialEq)]
 pub enum CacheOp {
-    /// Insert a record. Recorded with the id the cache gave it (sealed), once the insert returned.
-    Insert(Record),
+    /// Insert a record. The recorder logs it as [`InsertId::Unknown`] at invocation and completes it
+    /// with the id the cache gave the record (and the record sealed with it) when the insert
+    /// returns one.
+    Insert {
+        /// The record; its own id field is not read (`id` says what is known).
+        record: Record,
+        /// The record's id, or who asked for it while that is all that is known.
+        id: InsertId,
+    },
     /// Ask which records are valid at a point with a normal.
     Lookup {
         /// The query point.
@@ -37,17 +91,33 @@ pub enum CacheOp {
     },
 }
 
+impl CacheOp {
+    /// The insert of `record` that was given `id` (the record is sealed with it): for histories
+    /// built by hand.
+    pub fn insert(id: RecordId, record: Record) -> Self {
+        Self::Insert {
+            record: record.sealed(id),
+            id: InsertId::Known(id),
+        }
+    }
+
+    /// An insert of `record` by `worker` whose id is not known: a pending insert, in a history
+    /// built by hand.
+    pub fn insert_unknown(worker: WorkerId, record: Record) -> Self {
+        Self::Insert {
+            record,
+            id: InsertId::Unknown(worker),
+        }
+    }
+}
+
 impl fmt::Debug for CacheOp {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
-            Self::Insert(r) => write!(
+            Self::Insert { record: r, id } => write!(
                 f,
-                "insert {} ({:.2},{:.2},{:.2}) R={:.2}",
-                r.id(),
-                r.position.x,
-                r.position.y,
-                r.position.z,
-                r.radius
+                "insert {id} ({:.2},{:.2},{:.2}) R={:.2}",
+                r.position.x, r.position.y, r.position.z, r.radius
             ),
             Self::Lookup { point, .. } => {
                 write!(f, "lookup ({:.2},{:.2},{:.2})", point.x, point.y, point.z)
@@ -65,7 +135,8 @@ pub enum CacheRet {
     Rejected(InsertError),
     /// A lookup's valid records.
     Found {
-        /// Ids of the intact records valid at the query, sorted.
+        /// Ids of the intact records valid at the query, sorted; a record met twice is there
+        /// twice (the recorder does not deduplicate, so the checks can see it).
         ids: Vec<RecordId>,
         /// Records met that were not intact ([`Record::is_intact`]): torn reads. Always 0 in the
         /// specification.
@@ -95,13 +166,19 @@ impl fmt::Debug for CacheRet {
     }
 }
 
-/// The sequential cache: the set of stored records. Equality and hashing look at the ids only
-/// (a record's id determines it within one history).
+/// The sequential cache: the set of stored records. Equality and hashing look at the ids of the
+/// named records only (a record's id determines it within one history), and at the bits of the
+/// unnamed ones.
 #[derive(Clone, Debug)]
 pub struct CacheSpec {
     config: CacheConfig,
-    /// Sorted by id, no duplicates.
+    /// Stored records with a known id, sealed with it; sorted by id, no duplicates.
     records: Arc<Vec<Record>>,
+    /// Ids given to inserts that stored nothing (`Discarded`), sorted: no record may have them.
+    spent: Arc<Vec<RecordId>>,
+    /// Records of pending inserts ([`InsertId::Unknown`]) that have taken effect and that no
+    /// lookup has named yet, with their worker, in the order they took effect.
+    unnamed: Arc<Vec<(WorkerId, Record)>>,
 }
 
 impl CacheSpec {
@@ -110,30 +187,122 @@ impl CacheSpec {
         Self {
             config,
             records: Arc::new(Vec::new()),
+            spent: Arc::new(Vec::new()),
+            unnamed: Arc::new(Vec::new()),
         }
     }
 
-    /// The records stored, sorted by id.
+    /// The stored records whose id is known, sorted by id.
     pub fn records(&self) -> &[Record] {
         &self.records
     }
 
-    /// Ids of the stored records valid at `point`/`normal`, sorted.
+    /// Ids of the stored records (those with a known id) valid at `point`/`normal`, sorted.
     pub fn valid_ids(&self, point: Vec3, normal: Vec3) -> Vec<RecordId> {
         ic::valid_among(self.records.iter(), point, normal, self.config.accuracy())
             .map(Record::id)
             .collect()
     }
+
+    /// True when no record of the state has `id` and no insert that stored nothing was given it.
+    fn is_fresh(&self, id: RecordId) -> bool {
+        self.records.binary_search_by_key(&id, Record::id).is_err()
+            && self.spent.binary_search(&id).is_err()
+    }
+
+    /// Stores `record` as `id` (nothing when a record has that id already).
+    fn store(&mut self, id: RecordId, record: &Record) {
+        if let Err(at) = self.records.binary_search_by_key(&id, Record::id) {
+            Arc::make_mut(&mut self.records).insert(at, record.sealed(id));
+        }
+    }
+
+    /// A lookup at `point`/`normal` that returned `ids`. The named records valid there must be
+    /// among `ids`, and the rest of `ids` must name, one each, exactly the unnamed records valid
+    /// there: each with a fresh id of its own worker (the first such id, by id, for the first
+    /// record, by the order they took effect: a choice only when one worker has two unnamed
+    /// records, which one handle running one operation at a time cannot leave). Names them.
+    fn step_lookup(&mut self, point: Vec3, normal: Vec3, ids: &[RecordId]) -> bool {
+        let named = self.valid_ids(point, normal);
+        let answerable = ic::is_valid_query(point, normal);
+        let a = self.config.accuracy();
+        let unnamed: Vec<usize> = (0..self.unnamed.len())
+            .filter(|&k| {
+                answerable && ic::valid_weight(&self.unnamed[k].1, point, normal, a).is_some()
+            })
+            .collect();
+        if unnamed.is_empty() {
+            return ids == named.as_slice();
+        }
+        // `ids` must be sorted without duplicates (the specification answers a sorted set), and
+        // contain `named`; the rest are the candidate names.
+        let mut rest = Vec::new();
+        let mut k = 0;
+        for (j, &id) in ids.iter().enumerate() {
+            if j > 0 && ids[j - 1] >= id {
+                return false;
+            }
+            if named.get(k) == Some(&id) {
+                k += 1;
+            } else {
+                rest.push(id);
+            }
+        }
+        if k < named.len() || rest.len() != unnamed.len() {
+            return false;
+        }
+        let mut names = Vec::with_capacity(unnamed.len());
+        for &u in &unnamed {
+            let worker = self.unnamed[u].0;
+            let Some(j) = rest
+                .iter()
+                .position(|&id| id.worker() == worker && self.is_fresh(id))
+            else {
+                return false;
+            };
+            names.push((rest.remove(j), u));
+        }
+        for &(id, u) in &names {
+            let record = self.unnamed[u].1;
+            self.store(id, &record);
+        }
+        let left = (0..self.unnamed.len())
+            .filter(|k| !unnamed.contains(k))
+            .map(|k| self.unnamed[k])
+            .collect();
+        self.unnamed = Arc::new(left);
+        true
+    }
+}
+
+/// The bits of every field a specification state compares (position, normal, irradiance,
+/// radius, gradients): floats compared by bits, so equality and hashing agree.
+fn record_bits(r: &Record) -> impl Iterator<Item = u32> + '_ {
+    [r.position, r.normal, r.irradiance]
+        .into_iter()
+        .chain(r.grad_t)
+        .chain(r.grad_r)
+        .flat_map(|v| v.to_array())
+        .chain([r.radius])
+        .map(f32::to_bits)
 }
 
 impl PartialEq for CacheSpec {
     fn eq(&self, other: &Self) -> bool {
-        Arc::ptr_eq(&self.records, &other.records)
+        let records = Arc::ptr_eq(&self.records, &other.records)
             || self
                 .records
                 .iter()
                 .map(Record::id)
-                .eq(other.records.iter().map(Record::id))
+                .eq(other.records.iter().map(Record::id));
+        records
+            && self.spent == other.spent
+            && self.unnamed.len() == other.unnamed.len()
+            && self
+                .unnamed
+                .iter()
+                .zip(other.unnamed.iter())
+                .all(|((w, r), (v, q))| w == v && record_bits(r).eq(record_bits(q)))
     }
 }
 
@@ -143,6 +312,12 @@ impl Hash for CacheSpec {
     fn hash<H: Hasher>(&self, state: &mut H) {
         state.write_usize(self.records.len());
         self.records.iter().for_each(|r| r.id().hash(state));
+        self.spent.hash(state);
+        state.write_usize(self.unnamed.len());
+        for (worker, record) in self.unnamed.iter() {
+            worker.hash(state);
+            record_bits(record).for_each(|b| state.write_u32(b));
+        }
     }
 }
 
@@ -150,16 +325,25 @@ impl Specification for CacheSpec {
     type Op = CacheOp;
     type Ret = CacheRet;
 
+    /// The sequential cache's answer. A lookup answers the records whose id is known (an unnamed
+    /// record, from a pending insert, has no id to answer with: [`step`](Self::step) is exact).
+    ///
+    /// # Panics
+    /// On a valid insert with [`InsertId::Unknown`]: the cache chooses the id, so the
+    /// specification cannot answer it (a pending one is [`apply_pending`](Self::apply_pending)'s).
     fn apply(&mut self, op: &CacheOp) -> CacheRet {
         match op {
-            CacheOp::Insert(r) => {
-                if let Err(e) = self.config.check(r) {
+            CacheOp::Insert { record, id } => {
+                if let Err(e) = self.config.check(record) {
                     return CacheRet::Rejected(e);
                 }
-                if let Err(at) = self.records.binary_search_by_key(&r.id(), Record::id) {
-                    Arc::make_mut(&mut self.records).insert(at, *r);
-                }
-                CacheRet::Inserted(Inserted::Stored(r.id()))
+                let InsertId::Known(id) = *id else {
+                    panic!(
+                        "insert {id} has no id to answer with: only a pending one can be applied"
+                    )
+                };
+                self.store(id, record);
+                CacheRet::Inserted(Inserted::Stored(id))
             }
             CacheOp::Lookup { point, normal } => CacheRet::Found {
                 ids: self.valid_ids(*point, *normal),
@@ -168,16 +352,63 @@ impl Specification for CacheSpec {
         }
     }
 
+    /// A pending insert with a known id stores its record as `apply` does (when the id is fresh);
+    /// one with an unknown id stores its record unnamed, for a later lookup to name. A pending
+    /// lookup changes nothing.
+    fn apply_pending(&mut self, op: &CacheOp) {
+        match op {
+            CacheOp::Insert { record, id } if self.config.check(record).is_ok() => match *id {
+                InsertId::Known(id) => {
+                    if self.is_fresh(id) {
+                        self.store(id, record);
+                    }
+                }
+                InsertId::Unknown(worker) => {
+                    Arc::make_mut(&mut self.unnamed).push((worker, *record))
+                }
+            },
+            CacheOp::Insert { .. } | CacheOp::Lookup { .. } => {}
+        }
+    }
+
+    /// # Panics
+    /// On an insert that returned an id its operation does not carry (the recorder always
+    /// completes the operation; a hand-built one must use [`CacheOp::insert`]).
     fn step(&mut self, op: &CacheOp, observed: &CacheRet) -> bool {
         match (op, observed) {
-            // The cache's policy chose not to store it: a no-op, as long as the record was valid.
-            (CacheOp::Insert(r), CacheRet::Inserted(Inserted::Discarded(id))) => {
-                *id == r.id() && self.config.check(r).is_ok()
+            (CacheOp::Insert { record, id }, CacheRet::Inserted(outcome)) => {
+                assert_eq!(
+                    id.known(),
+                    Some(outcome.id()),
+                    "insert {id} returned {outcome:?} with another id"
+                );
+                let id = outcome.id();
+                if self.config.check(record).is_err() || !self.is_fresh(id) {
+                    return false;
+                }
+                match outcome {
+                    Inserted::Stored(_) => self.store(id, record),
+                    // The cache's policy chose not to store it: a no-op, but the id is used.
+                    Inserted::Discarded(_) => {
+                        let spent = Arc::make_mut(&mut self.spent);
+                        let at = spent.binary_search(&id).unwrap_err();
+                        spent.insert(at, id);
+                    }
+                    // A cache that keeps nothing is not this specification.
+                    Inserted::NotCached(_) => return false,
+                }
+                true
             }
             // A model-checking capacity limit (loom only): a no-op.
             #[cfg(feature = "loom")]
-            (CacheOp::Insert(_), CacheRet::Rejected(InsertError::ListFull)) => true,
-            _ => self.apply(op) == *observed,
+            (CacheOp::Insert { .. }, CacheRet::Rejected(InsertError::ListFull)) => true,
+            (CacheOp::Insert { record, .. }, CacheRet::Rejected(e)) => {
+                self.config.check(record).err() == Some(*e)
+            }
+            (CacheOp::Lookup { point, normal }, CacheRet::Found { ids, torn }) => {
+                *torn == 0 && self.step_lookup(*point, *normal, ids)
+            }
+            _ => false,
         }
     }
 
@@ -185,22 +416,37 @@ impl Specification for CacheSpec {
         lookup_observes(op, ret, other)
     }
 
-    /// Records are independent: a lookup that saw a removed insert's record keeps the rest.
+    /// Records are independent: a lookup that saw a removed insert's record keeps the rest. A
+    /// removed insert whose id is unknown may be behind any id of its worker, so a lookup that
+    /// returned one goes with it.
     fn forget(op: &CacheOp, ret: &mut CacheRet, removed: &CacheOp) -> bool {
-        if let (CacheOp::Lookup { .. }, CacheRet::Found { ids, .. }, CacheOp::Insert(r)) =
-            (op, &mut *ret, removed)
-        {
-            ids.retain(|&id| id != r.id());
+        match (op, &mut *ret, removed) {
+            (
+                CacheOp::Lookup { .. },
+                CacheRet::Found { ids, .. },
+                CacheOp::Insert {
+                    id: InsertId::Known(id),
+                    ..
+                },
+            ) => {
+                ids.retain(|x| x != id);
+                true
+            }
+            _ => !lookup_observes(op, ret, removed),
         }
-        true
     }
 }
 
-/// True when `op` is a lookup whose result `ret` contains the record `other` inserted.
+/// True when `op` is a lookup whose result `ret` contains the record `other` inserted; for an
+/// insert whose id is unknown, when it contains an id of the insert's worker (it may be that
+/// record: nobody can tell).
 pub fn lookup_observes(op: &CacheOp, ret: &CacheRet, other: &CacheOp) -> bool {
     match (op, ret, other) {
-        (CacheOp::Lookup { .. }, CacheRet::Found { ids, .. }, CacheOp::Insert(r)) => {
-            ids.binary_search(&r.id()).is_ok()
+        (CacheOp::Lookup { .. }, CacheRet::Found { ids, .. }, CacheOp::Insert { id, .. }) => {
+            match *id {
+                InsertId::Known(id) => ids.contains(&id),
+                InsertId::Unknown(worker) => ids.iter().any(|x| x.worker() == worker),
+            }
         }
         _ => false,
     }
@@ -209,7 +455,8 @@ pub fn lookup_observes(op: &CacheOp, ret: &CacheRet, other: &CacheOp) -> bool {
 /// A cache handle that records every insert and lookup in its thread's log.
 ///
 /// Lookups are answered by [`CacheHandle::valid_records`], one traversal of the cache like a
-/// lookup's, and recorded as the sorted ids of the intact records it met plus a count of torn ones.
+/// lookup's, and recorded as the sorted ids of the intact records it met (a record met twice is
+/// recorded twice) plus a count of torn ones.
 #[derive(Debug)]
 pub struct RecordingHandle<H> {
     handle: H,
@@ -229,13 +476,14 @@ impl<H: CacheHandle> RecordingHandle<H> {
 
     /// Inserts `record` through the handle, recording the call and its outcome.
     pub fn insert(&mut self, record: Record) -> Result<Inserted, InsertError> {
-        self.log.invoke(CacheOp::Insert(record));
+        // The id is assigned inside the insert: until it returns, only the worker is known.
+        let worker = self.handle.worker();
+        self.log.invoke(CacheOp::insert_unknown(worker, record));
         let result = self.handle.insert(record);
         match result {
             Ok(outcome) => {
                 if let Some(op) = self.log.pending_op_mut() {
-                    // The id is assigned inside the insert: describe the op with it.
-                    *op = CacheOp::Insert(record.sealed(outcome.id()));
+                    *op = CacheOp::insert(outcome.id(), record);
                 }
                 self.log.ret(CacheRet::Inserted(outcome));
             }
@@ -245,7 +493,7 @@ impl<H: CacheHandle> RecordingHandle<H> {
     }
 
     /// Looks up the records valid at `point`/`normal`, recording the call and the ids found.
-    /// Returns the ids (sorted) and the number of torn records met.
+    /// Returns the ids (sorted, duplicates kept) and the number of torn records met.
     pub fn lookup(&mut self, point: Vec3, normal: Vec3) -> (Vec<RecordId>, usize) {
         self.log.invoke(CacheOp::Lookup { point, normal });
         self.scratch.clear();
@@ -270,8 +518,9 @@ impl<H: CacheHandle> RecordingHandle<H> {
         &mut self.handle
     }
 
-    /// The handle and the log, for [`Recorder::into_history`](super::Recorder::into_history) and
-    /// [`CacheHandle::finish`].
+    /// The handle and the log: the log for
+    /// [`Recorder::into_history`](super::Recorder::into_history), the handle to keep using or to
+    /// drop (which hands its state back to the cache).
     pub fn into_parts(self) -> (H, ThreadLog<CacheOp, CacheRet>) {
         (self.handle, self.log)
     }
@@ -280,7 +529,9 @@ impl<H: CacheHandle> RecordingHandle<H> {
 /// How a cache history broke set consistency (operation indices into the history).
 #[derive(Clone, Debug, PartialEq)]
 pub enum SetViolation {
-    /// A lookup returned a record no insert of the history stored.
+    /// A lookup returned a record no insert of the history stored: no insert was given its id (or
+    /// the one that was stored nothing), and no pending insert of its worker whose id is unknown is
+    /// left to explain it ([`check_set_consistency`] states the rule).
     Phantom {
         /// The lookup.
         lookup: usize,
@@ -302,6 +553,23 @@ pub enum SetViolation {
         lookup: usize,
         /// The insert.
         insert: usize,
+        /// The record's id.
+        id: RecordId,
+    },
+    /// A lookup missed a record valid at its query that an earlier lookup of the same thread
+    /// returned: reads are not monotonic.
+    Forgotten {
+        /// The earlier lookup (the latest of the thread that returned the record).
+        earlier: usize,
+        /// The later lookup.
+        later: usize,
+        /// The record's id.
+        id: RecordId,
+    },
+    /// A lookup returned the same record more than once (a set has each element once).
+    Duplicate {
+        /// The lookup.
+        lookup: usize,
         /// The record's id.
         id: RecordId,
     },
@@ -328,6 +596,13 @@ impl fmt::Display for SetViolation {
                 f,
                 "lookup #{lookup} missed {id}, valid there, whose insert #{insert} returned before the lookup began"
             ),
+            Self::Forgotten { earlier, later, id } => write!(
+                f,
+                "lookup #{later} missed {id}, valid there, which lookup #{earlier} of the same thread returned"
+            ),
+            Self::Duplicate { lookup, id } => {
+                write!(f, "lookup #{lookup} returned {id} more than once")
+            }
             Self::Torn { lookup, count } => write!(f, "lookup #{lookup} met {count} torn records"),
         }
     }
@@ -338,65 +613,185 @@ impl std::error::Error for SetViolation {}
 /// Checks the set-consistency of a cache history: for every lookup that returned,
 ///
 /// 1. every record it returned was stored by an insert of the history that began before the
-///    lookup ended (no phantom, nothing from the future; a `Discarded` record is a phantom);
+///    lookup ended (no phantom, nothing from the future; a `Discarded` record is a phantom), or
+///    may be a pending insert's, by the rule below;
 /// 2. every record valid at its query whose insert returned `Stored` before the lookup began is
 ///    among those returned (nothing lost);
-/// 3. it met no torn record.
+/// 3. it met no torn record, and returned no record twice;
+/// 4. every record an earlier lookup of the same thread returned that is valid at its query is
+///    among those returned (reads are monotonic per thread: nothing is forgotten). The caches
+///    have no removal; one that had would exempt here, as in 2, the records removed by an
+///    operation that began before the lookup ended.
 ///
-/// Pending lookups are not checked; a pending insert cannot be matched (its id is unknown), so a
-/// record seen from one is reported as a phantom.
+/// Pending lookups are not checked. A pending insert whose id is unknown ([`InsertId::Unknown`]:
+/// invoked, never returned) may have stored its record (a WF record is visible before its insert
+/// returns), but which id it got is not recorded. So: let `X` be the ids of worker `w` that
+/// lookups returned and that no insert of the history carries, and `P` the pending inserts of `w`
+/// whose id is unknown. Each id of `X` is explained by its own insert of `P` (one insert stores
+/// one record) invoked before every lookup that returned the id ended, as many of `X` as can be
+/// (a maximum matching; it is found greedily, ids by the earliest end of a lookup returning them,
+/// inserts by invocation); an id left over is a phantom, reported at that earliest lookup. An id
+/// some insert of the history carries is that insert's and never a pending one's.
+///
+/// # Panics
+/// On an insert that returned an id its operation does not carry (the recorder always completes
+/// the operation; a hand-built one must use [`CacheOp::insert`]).
 pub fn check_set_consistency(
     history: &History<CacheOp, CacheRet>,
     config: &CacheConfig,
 ) -> Result<(), SetViolation> {
     let ops = history.operations();
-    let mut stored: HashMap<RecordId, usize> = HashMap::new();
-    let mut inserts = Vec::new();
+    // Every insert that carries an id, by id; those that stored their record, for losses; the
+    // pending inserts whose id is unknown, by worker, in invocation order.
+    let mut named: HashMap<RecordId, usize> = HashMap::new();
+    let mut stored = Vec::new();
+    let mut unnamed: HashMap<WorkerId, Vec<usize>> = HashMap::new();
     for (k, o) in ops.iter().enumerate() {
-        if let (CacheOp::Insert(r), Some(CacheRet::Inserted(Inserted::Stored(id)))) =
-            (&o.op, &o.ret)
-        {
-            debug_assert_eq!(r.id(), *id);
-            stored.insert(*id, k);
-            inserts.push(k);
-        }
-    }
-    let a = config.accuracy();
-    for (lookup, o) in ops.iter().enumerate() {
-        let (CacheOp::Lookup { point, normal }, Some(CacheRet::Found { ids, torn }), Some(end)) =
-            (&o.op, &o.ret, o.returned)
-        else {
+        let CacheOp::Insert { id, .. } = o.op else {
             continue;
         };
-        if *torn > 0 {
+        if let Some(CacheRet::Inserted(outcome)) = &o.ret {
+            assert_eq!(
+                id.known(),
+                Some(outcome.id()),
+                "insert #{k} ({id}) returned {outcome:?} with another id"
+            );
+        }
+        match (id, &o.ret) {
+            (InsertId::Known(id), ret) => {
+                named.insert(id, k);
+                if matches!(ret, Some(CacheRet::Inserted(Inserted::Stored(_)))) {
+                    stored.push(k);
+                }
+            }
+            (InsertId::Unknown(worker), None) => unnamed.entry(worker).or_default().push(k),
+            // Refused: it stored nothing.
+            (InsertId::Unknown(_), Some(_)) => {}
+        }
+    }
+    // May a lookup see insert `k`'s record? When it was stored, or may still be (pending).
+    let visible = |k: usize| {
+        matches!(
+            ops[k].ret,
+            None | Some(CacheRet::Inserted(Inserted::Stored(_)))
+        )
+    };
+    let lookups = || {
+        ops.iter()
+            .enumerate()
+            .filter_map(|(k, o)| match (&o.op, &o.ret, o.returned) {
+                (
+                    CacheOp::Lookup { point, normal },
+                    Some(CacheRet::Found { ids, torn }),
+                    Some(end),
+                ) => Some((k, o, *point, *normal, ids, *torn, end)),
+                _ => None,
+            })
+    };
+    // Ids no insert carries, with the earliest end of a lookup that returned each (and that
+    // lookup), then matched to the pending inserts of their worker.
+    let mut orphans: HashMap<RecordId, (u64, usize)> = HashMap::new();
+    for (lookup, _, _, _, ids, _, end) in lookups() {
+        for &id in ids.iter().filter(|id| !named.contains_key(id)) {
+            let first = orphans.entry(id).or_insert((end, lookup));
+            *first = (*first).min((end, lookup));
+        }
+    }
+    let mut adopted: HashMap<RecordId, usize> = HashMap::new();
+    let mut by_worker: HashMap<WorkerId, Vec<(u64, RecordId)>> = HashMap::new();
+    for (&id, &(end, _)) in &orphans {
+        by_worker.entry(id.worker()).or_default().push((end, id));
+    }
+    for (worker, mut ids) in by_worker {
+        ids.sort_unstable();
+        let pending = unnamed.get(&worker).map_or(&[][..], Vec::as_slice);
+        let mut next = 0;
+        for (end, id) in ids {
+            if let Some(&insert) = pending.get(next).filter(|&&k| ops[k].invoked < end) {
+                adopted.insert(id, insert);
+                next += 1;
+            }
+        }
+    }
+    // The inserted record behind an id that passed the phantom check: its insert's, or the
+    // pending insert's that adopted it.
+    let record_of = |id: RecordId| {
+        let k = named.get(&id).or_else(|| adopted.get(&id));
+        match k.map(|&k| &ops[k].op) {
+            Some(CacheOp::Insert { record, .. }) => record,
+            _ => unreachable!("{id} passed the phantom check"),
+        }
+    };
+    // Per thread, every id its lookups returned so far, with the latest lookup that returned it.
+    let mut seen: HashMap<usize, BTreeMap<RecordId, usize>> = HashMap::new();
+    let a = config.accuracy();
+    for (lookup, o, point, normal, ids, torn, end) in lookups() {
+        if torn > 0 {
             return Err(SetViolation::Torn {
                 lookup,
-                count: *torn,
+                count: torn,
             });
         }
-        for &id in ids {
-            let Some(&insert) = stored.get(&id) else {
-                return Err(SetViolation::Phantom { lookup, id });
-            };
-            if ops[insert].invoked > end {
-                return Err(SetViolation::FromTheFuture { lookup, insert, id });
+        // The recorder sorts the ids (and keeps duplicates); sort a copy anyway, so that a
+        // hand-built result in another order is judged the same.
+        let mut ids = ids.clone();
+        ids.sort_unstable();
+        if let Some(pair) = ids.windows(2).find(|pair| pair[0] == pair[1]) {
+            return Err(SetViolation::Duplicate {
+                lookup,
+                id: pair[0],
+            });
+        }
+        for &id in &ids {
+            match named.get(&id) {
+                Some(&insert) if !visible(insert) => {
+                    return Err(SetViolation::Phantom { lookup, id });
+                }
+                Some(&insert) if ops[insert].invoked > end => {
+                    return Err(SetViolation::FromTheFuture { lookup, insert, id });
+                }
+                Some(_) => {}
+                // Adopted by a pending insert invoked before every lookup returning it ended.
+                None if adopted.contains_key(&id) => {}
+                None => {
+                    return Err(SetViolation::Phantom {
+                        lookup: orphans[&id].1,
+                        id,
+                    });
+                }
             }
         }
-        if !ic::is_valid_query(*point, *normal) {
-            continue;
-        }
-        for &insert in &inserts {
-            let CacheOp::Insert(r) = &ops[insert].op else {
-                unreachable!("only inserts are indexed")
-            };
-            let id = r.id();
-            if ops[insert].precedes(o)
-                && ic::valid_weight(r, *point, *normal, a).is_some()
-                && ids.binary_search(&id).is_err()
-            {
-                return Err(SetViolation::Lost { lookup, insert, id });
+        let mine = seen.entry(o.thread).or_default();
+        if ic::is_valid_query(point, normal) {
+            for &insert in &stored {
+                let CacheOp::Insert { record, id } = &ops[insert].op else {
+                    unreachable!("only inserts are indexed")
+                };
+                let id = id.known().expect("a stored insert carries its id");
+                if ops[insert].precedes(o)
+                    && ic::valid_weight(record, point, normal, a).is_some()
+                    && ids.binary_search(&id).is_err()
+                {
+                    return Err(SetViolation::Lost { lookup, insert, id });
+                }
+            }
+            // Monotonic reads. No operation removes a record yet. When one does (eviction), a
+            // record removed by an operation that began before this lookup ended may vanish
+            // legitimately: it must be exempted here (and from `Lost` above), e.g. by taking it
+            // out of the thread's `seen` when the removal is met, before such histories are checked.
+            for (&id, &earlier) in mine.iter() {
+                if ic::valid_weight(record_of(id), point, normal, a).is_some()
+                    && ids.binary_search(&id).is_err()
+                {
+                    return Err(SetViolation::Forgotten {
+                        earlier,
+                        later: lookup,
+                        id,
+                    });
+                }
             }
         }
+        mine.extend(ids.iter().map(|&id| (id, lookup)));
     }
     Ok(())
 }

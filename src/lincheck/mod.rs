@@ -15,8 +15,10 @@
 //!   thousand operations checkable in milliseconds instead of never.
 //! * **Set consistency.** [`check_set_consistency`] is the weaker property a cache may satisfy
 //!   without being linearizable: every record a lookup returns was inserted by an insert that began
-//!   before the lookup ended; every matching insert that returned before the lookup began is seen;
-//!   nothing is torn.
+//!   before the lookup ended (a pending insert, whose id is unknown, may explain one record of its
+//!   worker); every matching insert that returned before the lookup began is seen; a record a
+//!   thread's lookup saw is seen by the thread's later lookups where it is valid (reads are
+//!   monotonic per thread); nothing is torn or returned twice.
 //! * **Failures** are shrunk by [`shrink`] to a history no single operation of which can be removed
 //!   while it still fails, and printed by [`History::render`] with threads as columns and the longest
 //!   partial linearization the search reached.
@@ -45,7 +47,8 @@
 //!
 //! [`CacheSpec`] is the sequential specification (the set of stored records, answered by brute
 //! force), [`RecordingHandle`] wraps any [`CacheHandle`](crate::cache::CacheHandle) and records
-//! its inserts and lookups, [`check_set_consistency`] is the weaker check. Small specifications for
+//! its inserts and lookups (an insert's record id is known only once it returns: [`InsertId`]),
+//! [`check_set_consistency`] is the weaker check. Small specifications for
 //! testing the checker itself are [`Register`] and [`IntSet`].
 //!
 //! ```
@@ -82,8 +85,8 @@ mod cache;
 mod models;
 
 pub use cache::{
-    check_set_consistency, lookup_observes, CacheOp, CacheRet, CacheSpec, RecordingHandle,
-    SetViolation,
+    check_set_consistency, lookup_observes, CacheOp, CacheRet, CacheSpec, InsertId,
+    RecordingHandle, SetViolation,
 };
 pub use models::{IntSet, Register, RegisterOp, RegisterRet, SetOp};
 
@@ -113,6 +116,15 @@ pub trait Specification: Clone + Hash + Eq {
     /// legitimate choice of the implementation (a WF insert that was `Discarded`).
     fn step(&mut self, op: &Self::Op, observed: &Self::Ret) -> bool {
         self.apply(op) == *observed
+    }
+
+    /// Applies `op` as a pending operation: one that was invoked and never returned, so its result
+    /// is unknown, and it may take effect at any point after its invocation. The default applies
+    /// it and ignores the answer; override it when the answer is part of what the operation does
+    /// to the state (an insert whose record id is chosen by the implementation: the specification
+    /// cannot know it).
+    fn apply_pending(&mut self, op: &Self::Op) {
+        self.apply(op);
     }
 
     /// True when `op`, having returned `ret`, observed the effect of `other` (a read of the value a
@@ -495,7 +507,8 @@ impl Bitset {
 /// Checks that `history` is linearizable with respect to the specification starting in `init`.
 ///
 /// Pending operations (no return) may take effect at any point after their invocation, or never;
-/// their result is not compared. Returns a linearization, or how far the search got.
+/// their result is not compared (they are applied by [`Specification::apply_pending`]). Returns a
+/// linearization, or how far the search got.
 pub fn check<S: Specification>(
     history: &History<S::Op, S::Ret>,
     init: &S,
@@ -556,7 +569,7 @@ pub fn check<S: Specification>(
             let ok = match &ops[i].ret {
                 Some(r) => after.step(&ops[i].op, r),
                 None => {
-                    after.apply(&ops[i].op);
+                    after.apply_pending(&ops[i].op);
                     true
                 }
             };
