@@ -40,7 +40,7 @@ fn stats_snapshot_and_report_count_exactly() {
         Record::new(Vec3::splat(0.5), Vec3::Z, Vec3::ONE, 0.35),
         Record::new(Vec3::splat(0.6), Vec3::Z, Vec3::ONE, 0.35),
     ];
-    let mut frame = cache.frame();
+    let frame = cache.frame();
     let mut ids = HashSet::new();
     {
         let mut h = frame.handle();
