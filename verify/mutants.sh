@@ -83,12 +83,13 @@ run_scope() {
             stage cache no -f 'src/cache/*.rs' -- "${real_thread_suites[@]}" --test lincheck
             ;;
         ic)
-            stage ic yes -f 'src/ic/**' -- --lib
-            stage ic no -f 'src/ic/**' -- --test agreement --test robustness --test render
+            # The maths' unit tests also run under the checker features, where the crate is small.
+            stage ic yes -f 'src/ic/**' --features loom -- --lib
+            stage ic no -f 'src/ic/**' -- --lib --test agreement --test robustness --test render
             ;;
         lincheck)
-            stage lincheck yes -f 'src/lincheck/**' -- --lib --test lincheck
-            stage lincheck no -f 'src/lincheck/**' --features shuttle -- --lib
+            stage lincheck yes -f 'src/lincheck/**' --features shuttle -- --lib
+            stage lincheck no -f 'src/lincheck/**' -- --lib --test lincheck
             ;;
         *)
             echo "unknown scope $scope (wf, cache, ic, lincheck or all)" >&2

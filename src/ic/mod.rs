@@ -169,7 +169,7 @@ pub fn is_valid_query(point: Vec3, normal: Vec3) -> bool {
     point.is_finite() && normal.is_finite() && normal.length_squared() > 0.0
 }
 
-#[cfg(all(test, not(checker)))]
+#[cfg(test)]
 mod tests {
     use super::*;
 

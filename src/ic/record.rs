@@ -271,7 +271,7 @@ impl Record {
     }
 }
 
-#[cfg(all(test, not(checker)))]
+#[cfg(test)]
 mod tests {
     use super::*;
 

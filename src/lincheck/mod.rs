@@ -803,7 +803,7 @@ impl fmt::Display for NotLinearizable {
 
 impl std::error::Error for NotLinearizable {}
 
-#[cfg(all(test, not(checker)))]
+#[cfg(test)]
 mod tests;
 
 #[cfg(all(test, feature = "shuttle"))]
