@@ -26,7 +26,8 @@ if ! cargo mutants --version 2>/dev/null | grep -q "$version"; then
 fi
 
 common=(--in-place --no-shuffle --minimum-test-timeout 60)
-real_thread_suites=(--lib --test agreement --test stress --test robustness --test leaks --test wf_api)
+real_thread_suites=(--lib --test agreement --test stress --test robustness --test leaks --test wf_api
+    --test lookup_work)
 
 # stage SCOPE FIRST? [cargo-mutants options...] -- [cargo test options...]
 stage() {
@@ -36,7 +37,8 @@ stage() {
     mkdir -p "$out"
     local iterate=()
     [ "$first" = no ] && iterate=(--iterate)
-    echo "== mutants $scope: cargo mutants ${common[*]} ${iterate[*]} $*" | tee -a "$out/commands.txt"
+    echo "== mutants $scope: cargo mutants ${common[*]} ${iterate[*]} $* (at $(git rev-parse --short HEAD))" |
+        tee -a "$out/commands.txt"
     # Exit status 2 means "some mutants were missed", 3 "some timed out": results, not errors.
     cargo mutants "${common[@]}" "${iterate[@]}" -o "$out" "$@" || {
         status=$?

@@ -1,0 +1,86 @@
+//! A lookup and `valid_records` at the same point walk the same nodes and examine the same
+//! records, in every scheme, and each counts its walk once: the work counters the model checkers
+//! bound (`verify/tree_shape.rs`) are the ones `lookup` itself keeps on the renderer's path.
+#![cfg(not(checker))]
+
+use glam::Vec3;
+use wfic::cache::{CacheConfig, CacheHandle, CacheJob, IrradianceCache, Scheme, WorkerStats};
+use wfic::ic::Record;
+
+fn config() -> CacheConfig {
+    CacheConfig::new(Vec3::ZERO, Vec3::splat(4.0), 1.0).unwrap()
+}
+
+/// Records at the root, at depth 1 and at depth 2, spread over two corners of the box.
+fn records() -> Vec<Record> {
+    let mut out = Vec::new();
+    for (i, radius) in [10.0, 0.8, 0.35, 0.35, 0.8, 0.35].into_iter().enumerate() {
+        for corner in [Vec3::splat(1.0), Vec3::new(3.0, 1.0, 1.0)] {
+            let p = corner + Vec3::new(0.05 * i as f32, 0.03 * i as f32, 0.0);
+            out.push(Record::new(p, Vec3::Z, Vec3::ONE, radius));
+        }
+    }
+    out
+}
+
+fn walked(s: &WorkerStats) -> (u64, u64) {
+    (s.lookup_nodes, s.lookup_records)
+}
+
+struct SameWork;
+
+impl CacheJob for SameWork {
+    /// Total (nodes, records) the lookups walked.
+    type Output = (u64, u64);
+
+    fn run<C: IrradianceCache>(self, mut cache: C) -> (u64, u64) {
+        let scheme = cache.scheme();
+        {
+            let frame = cache.frame();
+            let mut h = frame.handle();
+            for r in records() {
+                h.insert(r).unwrap();
+            }
+        }
+        // A second frame: LW's records are in the global cache now, as everyone else's.
+        let frame = cache.frame();
+        let mut h = frame.handle();
+        let mut found = Vec::new();
+        for q in records().iter().map(|r| r.position + Vec3::new(0.02, -0.01, 0.0)) {
+            let before = *h.stats();
+            h.lookup(q, Vec3::Z);
+            let after_lookup = *h.stats();
+            found.clear();
+            h.valid_records(q, Vec3::Z, &mut found);
+            let after_valid = *h.stats();
+            let by_lookup = (
+                after_lookup.lookup_nodes - before.lookup_nodes,
+                after_lookup.lookup_records - before.lookup_records,
+            );
+            let by_valid = (
+                after_valid.lookup_nodes - after_lookup.lookup_nodes,
+                after_valid.lookup_records - after_lookup.lookup_records,
+            );
+            assert_eq!(by_lookup, by_valid, "{scheme}: lookup and valid_records at {q}");
+            assert_eq!(after_lookup.lookups, before.lookups + 1, "{scheme}");
+            assert_eq!(after_valid.lookups, after_lookup.lookups, "{scheme}");
+            assert!(after_lookup.max_lookup_nodes as u64 >= by_lookup.0, "{scheme}");
+            assert!(after_lookup.max_lookup_records as u64 >= by_lookup.1, "{scheme}");
+        }
+        let totals = walked(h.stats());
+        (totals.0 / 2, totals.1 / 2)
+    }
+}
+
+#[test]
+fn lookup_and_valid_records_count_the_same_walk() {
+    for scheme in Scheme::ALL {
+        let (nodes, records) = scheme.build(config(), SameWork);
+        if scheme == Scheme::None {
+            assert_eq!((nodes, records), (0, 0), "the reference keeps nothing to walk");
+        } else {
+            // 12 queries, each at least the root and one record in it.
+            assert!(nodes >= 12 && records >= 12, "{scheme}: ({nodes}, {records})");
+        }
+    }
+}
