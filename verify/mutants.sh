@@ -29,10 +29,15 @@ common=(--in-place --no-shuffle --minimum-test-timeout 60)
 real_thread_suites=(--lib --test agreement --test stress --test robustness --test leaks --test wf_api
     --test lookup_work)
 
+# `WFIC_MUTANTS_RESUME=1` keeps the scope's results and skips its first stage (to rerun only the
+# later stages on the mutants it left alive, e.g. after adding a test).
+resume=${WFIC_MUTANTS_RESUME:-0}
+
 # stage SCOPE FIRST? [cargo-mutants options...] -- [cargo test options...]
 stage() {
     local scope=$1 first=$2
     shift 2
+    if [ "$first" = yes ] && [ "$resume" = 1 ]; then return; fi
     local out="$root/results/mutants/$scope"
     mkdir -p "$out"
     local iterate=()
@@ -74,7 +79,7 @@ summary() {
 
 run_scope() {
     local scope=$1
-    rm -rf "$root/results/mutants/$scope"
+    [ "$resume" = 1 ] || rm -rf "$root/results/mutants/$scope"
     case $scope in
         wf)
             stage wf yes -f 'src/cache/wf/**' --features loom -- --test loom_wf --test loom_orderings --test loom_leaks
