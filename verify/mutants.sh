@@ -49,32 +49,48 @@ stage() {
         status=$?
         if [ "$status" != 2 ] && [ "$status" != 3 ]; then exit "$status"; fi
     }
+    # Keep each stage's own lists: the next stage's `--iterate` folds them into one file.
+    local n=$(($(ls -d "$out"/stage-* 2>/dev/null | wc -l) + 1))
+    mkdir -p "$out/stage-$n"
+    cp "$out"/mutants.out/*.txt "$out"/mutants.out/outcomes.json "$out/stage-$n/"
 }
 
 summary() {
-    local scope=$1 dir="$root/results/mutants/$1/mutants.out"
-    local n
-    {
-        echo "# Mutation testing: $scope"
-        echo
-        echo "- commit: $(git rev-parse HEAD)$(git diff --quiet HEAD -- src || echo ' (with uncommitted changes to src)')"
-        echo "- cargo-mutants $version, $(date -u +%Y-%m-%d)"
-        echo "- commands (each stage tests only what the previous stages left alive):"
-        sed 's/^== mutants [a-z]*: /  - `/; s/$/`/' "$root/results/mutants/$scope/commands.txt"
-        echo
-        echo "| outcome | mutants |"
-        echo "|---|---:|"
-        for kind in caught previously_caught missed timeout unviable; do
-            n=0
-            [ -f "$dir/$kind.txt" ] && n=$(grep -c . "$dir/$kind.txt" || true)
-            echo "| $kind | $n |"
-        done
-        echo
-        echo "## Missed"
-        echo
-        if [ -s "$dir/missed.txt" ]; then sed 's/^/- /' "$dir/missed.txt"; else echo "none"; fi
-    } > "$root/results/mutants/$scope/summary.md"
-    cat "$root/results/mutants/$scope/summary.md"
+    local scope=$1
+    python3 - "$root/results/mutants/$scope" "$(git rev-parse HEAD)" "$version" <<'PY'
+import json, pathlib, sys, datetime
+out, commit, version = pathlib.Path(sys.argv[1]), sys.argv[2], sys.argv[3]
+def lines(p):
+    return [l for l in p.read_text().splitlines() if l.strip()] if p.exists() else []
+stages = sorted(out.glob("stage-*"), key=lambda p: int(p.name.split("-")[1]))
+first = stages[0]
+total = json.loads((first / "outcomes.json").read_text())["total_mutants"]
+unviable = len(lines(first / "unviable.txt"))
+rows = []
+for k, st in enumerate(stages, 1):
+    rows.append((k, len(lines(st / "caught.txt")), len(lines(st / "missed.txt")), len(lines(st / "timeout.txt"))))
+last = stages[-1]
+missed = lines(last / "missed.txt")
+timeouts = sum(r[3] for r in rows)
+caught = sum(r[1] for r in rows)
+viable = total - unviable
+commands = (out / "commands.txt").read_text().splitlines()
+md = [f"# Mutation testing: {out.name}", "",
+      f"- cargo-mutants {version}; summary written {datetime.date.today()} at commit {commit}",
+      "- stages (each tests only the mutants the previous stages left alive):"]
+md += ["  " + str(k) + ". `" + c.split(": ", 1)[1] + "`" for k, c in enumerate(commands, 1)]
+md += ["", "| | mutants |", "|---|---:|", f"| generated | {total} |", f"| unviable (do not build) | {unviable} |",
+       f"| viable | {viable} |"]
+for k, c, m, t in rows:
+    md.append(f"| caught by stage {k} | {c} |")
+md += [f"| timeout (counted as caught: the mutant hangs) | {timeouts} |", f"| **missed** | **{len(missed)}** |",
+       f"| mutation score (caught + timeout) / viable | {100.0 * (caught + timeouts) / max(viable, 1):.1f}% |",
+       "", "## Missed", ""]
+md += [f"- `{m}`" for m in missed] or ["none"]
+md += ["", "Each missed mutant is argued equivalent in `paper-notes.md` (\"Mutation testing\")."]
+(out / "summary.md").write_text("\n".join(md) + "\n")
+print("\n".join(md))
+PY
 }
 
 run_scope() {
