@@ -46,7 +46,10 @@ impl CacheJob for SameWork {
         let frame = cache.frame();
         let mut h = frame.handle();
         let mut found = Vec::new();
-        for q in records().iter().map(|r| r.position + Vec3::new(0.02, -0.01, 0.0)) {
+        for q in records()
+            .iter()
+            .map(|r| r.position + Vec3::new(0.02, -0.01, 0.0))
+        {
             let before = *h.stats();
             h.lookup(q, Vec3::Z);
             let after_lookup = *h.stats();
@@ -61,11 +64,20 @@ impl CacheJob for SameWork {
                 after_valid.lookup_nodes - after_lookup.lookup_nodes,
                 after_valid.lookup_records - after_lookup.lookup_records,
             );
-            assert_eq!(by_lookup, by_valid, "{scheme}: lookup and valid_records at {q}");
+            assert_eq!(
+                by_lookup, by_valid,
+                "{scheme}: lookup and valid_records at {q}"
+            );
             assert_eq!(after_lookup.lookups, before.lookups + 1, "{scheme}");
             assert_eq!(after_valid.lookups, after_lookup.lookups, "{scheme}");
-            assert!(after_lookup.max_lookup_nodes as u64 >= by_lookup.0, "{scheme}");
-            assert!(after_lookup.max_lookup_records as u64 >= by_lookup.1, "{scheme}");
+            assert!(
+                after_lookup.max_lookup_nodes as u64 >= by_lookup.0,
+                "{scheme}"
+            );
+            assert!(
+                after_lookup.max_lookup_records as u64 >= by_lookup.1,
+                "{scheme}"
+            );
         }
         let totals = walked(h.stats());
         (totals.0 / 2, totals.1 / 2)
@@ -77,10 +89,17 @@ fn lookup_and_valid_records_count_the_same_walk() {
     for scheme in Scheme::ALL {
         let (nodes, records) = scheme.build(config(), SameWork);
         if scheme == Scheme::None {
-            assert_eq!((nodes, records), (0, 0), "the reference keeps nothing to walk");
+            assert_eq!(
+                (nodes, records),
+                (0, 0),
+                "the reference keeps nothing to walk"
+            );
         } else {
             // 12 queries, each at least the root and one record in it.
-            assert!(nodes >= 12 && records >= 12, "{scheme}: ({nodes}, {records})");
+            assert!(
+                nodes >= 12 && records >= 12,
+                "{scheme}: ({nodes}, {records})"
+            );
         }
     }
 }
