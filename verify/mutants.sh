@@ -87,7 +87,8 @@ md += [f"| timeout (counted as caught: the mutant hangs) | {timeouts} |", f"| **
        f"| mutation score (caught + timeout) / viable | {100.0 * (caught + timeouts) / max(viable, 1):.1f}% |",
        "", "## Missed", ""]
 md += [f"- `{m}`" for m in missed] or ["none"]
-md += ["", "Each missed mutant is argued equivalent in `paper-notes.md` (\"Mutation testing\")."]
+if missed:
+    md += ["", "Each missed mutant is argued equivalent in `paper-notes.md` (\"Mutation testing\")."]
 (out / "summary.md").write_text("\n".join(md) + "\n")
 print("\n".join(md))
 PY
