@@ -18,48 +18,12 @@ mod loom_common;
 
 use loom_common::{child_record, config, expect_failure, insert_one, model, sealed};
 use std::mem;
-use std::panic::{catch_unwind, AssertUnwindSafe};
 use wfic::cache::wf::{Minimal, RecordList};
 use wfic::cache::{CasFailure, IrradianceCache, WaitFree};
-use wfic::sync::{unchecked, unpoison, Tracked};
+use wfic::sync::Tracked;
 
 /// The first line of loom's leak report, as loom 0.7 prints it (`loom::rt::alloc`).
 const LEAK_REPORT: &str = "Allocation leaked.";
-
-/// Serialises the tests of this file and runs one trivial model before the first of them.
-///
-/// The `generator` crate under loom installs, on its first use, a panic hook that silences the
-/// panic with which every finished loom thread unwinds, over the hook it finds. If that first use
-/// falls inside an `expect_failure` (which swaps in a silent hook and restores the old one after),
-/// the filter is lost when the old hook comes back, and every later model prints a spurious
-/// `panicked at .../generator-*/src/yield_.rs: Box<dyn Any>`. Harmless, but it looks like a
-/// failure; so the filter is installed first, and no two tests swap the hook at once.
-fn serial() -> unchecked::MutexGuard<'static, ()> {
-    static SERIAL: unchecked::Mutex<()> = unchecked::Mutex::new(());
-    let guard = unpoison(SERIAL.lock());
-    loom::model(|| {});
-    guard
-}
-
-/// Like [`loom_common::expect_failure`], with loom's location capture on (what `LOOM_LOCATION=1`
-/// does), so a leak report says where the leaked object was made: `Allocated: <file>:<line>`.
-fn expect_failure_located(f: impl Fn() + Sync + Send + 'static) -> String {
-    let mut builder = loom::model::Builder::new();
-    builder.preemption_bound = loom_common::PREEMPTION_BOUND;
-    builder.location = true;
-    let hook = std::panic::take_hook();
-    std::panic::set_hook(Box::new(|_| {}));
-    let result = catch_unwind(AssertUnwindSafe(|| builder.check(f)));
-    std::panic::set_hook(hook);
-    match result {
-        Ok(()) => panic!("the model passed, but it was expected to fail"),
-        Err(payload) => payload
-            .downcast_ref::<String>()
-            .cloned()
-            .or_else(|| payload.downcast_ref::<&str>().map(|s| s.to_string()))
-            .unwrap_or_default(),
-    }
-}
 
 /// Asserts that `message` is loom's leak report and, if `allocated_in` is given, that it names an
 /// allocation site in that file.
@@ -82,10 +46,7 @@ fn assert_leak(what: &str, message: &str, allocated_in: Option<&str>) {
 /// tests and the notes rely on, and shows that loom's leak check runs at all.
 #[test]
 fn a_forgotten_tracker_fails_the_model_with_loom_leak_report() {
-    let _serial = serial();
     let message = expect_failure(|| mem::forget(Tracked::new()));
-    assert_leak("forgotten tracker", &message, None);
-    let message = expect_failure_located(|| mem::forget(Tracked::new()));
     assert_leak("forgotten tracker", &message, Some("verify/loom_leaks.rs"));
 }
 
@@ -93,8 +54,7 @@ fn a_forgotten_tracker_fails_the_model_with_loom_leak_report() {
 /// `src/cache/wf/mod.rs`, so nodes are tracked. Dropping the same cache passes.
 #[test]
 fn a_forgotten_cache_leaks_its_root_node() {
-    let _serial = serial();
-    let message = expect_failure_located(|| {
+    let message = expect_failure(|| {
         mem::forget(WaitFree::<Minimal>::new(config(), CasFailure::Adopt));
     });
     assert_leak("forgotten cache", &message, Some("src/cache/wf/mod.rs"));
@@ -113,8 +73,7 @@ fn a_forgotten_cache_leaks_its_root_node() {
 /// the same list passes.
 #[test]
 fn a_forgotten_list_leaks_its_segment() {
-    let _serial = serial();
-    let message = expect_failure_located(|| {
+    let message = expect_failure(|| {
         let list = RecordList::<Minimal>::new();
         list.push(sealed(0.0)).unwrap();
         mem::forget(list);
