@@ -320,6 +320,85 @@ mod tests {
     }
 
     #[test]
+    fn in_front_by_hand_away_from_the_origin() {
+        // A record at (1, 2, 3) facing +z, radius 2: the tolerance is 0.05 * 2 = 0.1 below its
+        // plane. Placing it off the origin makes `x - x_i` differ from `x + x_i`.
+        let r = rec(Vec3::new(1.0, 2.0, 3.0), 1.0, 2.0);
+        // 0.05 below: inside 0.1 R-relative tolerance (it would be outside a tolerance of 0.05 / R).
+        assert!(!is_in_front(&r, Vec3::new(1.5, 2.0, 2.95), Vec3::Z));
+        // 0.15 below: in front.
+        assert!(is_in_front(&r, Vec3::new(1.5, 2.0, 2.85), Vec3::Z));
+        // 0.2 above: never in front.
+        assert!(!is_in_front(&r, Vec3::new(1.5, 2.0, 3.2), Vec3::Z));
+        // The averaged normal (n + n_i) / 2, not a product of components: with n = n_i = Z the
+        // signed distance of a point 0.075 below is -0.075, beyond the tolerance of 0.05 at R = 1.
+        let unit = rec(Vec3::ZERO, 1.0, 1.0);
+        assert!(is_in_front(&unit, Vec3::new(0.0, 0.0, -0.075), Vec3::Z));
+        // Tilted normals: n = (0.6, 0, 0.8), n_i = Z, so (n + n_i) / 2 = (0.3, 0, 0.9). The point
+        // (-0.2, 0, 0) has signed distance -0.06 (in front at tolerance 0.05), although it lies in
+        // the record's own plane.
+        let n = Vec3::new(0.6, 0.0, 0.8);
+        assert!(is_in_front(&unit, Vec3::new(-0.2, 0.0, 0.0), n));
+        assert!(!is_in_front(&unit, Vec3::new(-0.1, 0.0, 0.0), n));
+        // Exactly at the tolerance (d = -0.05 = -0.05 R, every product exact): not in front, the
+        // test is strict.
+        assert!(!is_in_front(&unit, Vec3::new(0.0, 0.0, -0.05), Vec3::Z));
+    }
+
+    #[test]
+    fn influence_radius_scales_with_the_record_radius() {
+        let r = rec(Vec3::ZERO, 1.0, 2.0);
+        assert!(close(f64::from(influence_radius(&r, 0.4)), 0.8));
+        let r = rec(Vec3::ZERO, 1.0, 0.5);
+        assert!(close(f64::from(influence_radius(&r, 0.4)), 0.2));
+    }
+
+    #[test]
+    fn valid_among_keeps_exactly_the_valid_records() {
+        let records = [
+            rec(Vec3::new(0.5, 0.0, 0.0), 1.0, 1.0), // weight 2 > 1/0.6: valid
+            rec(Vec3::new(5.0, 0.0, 0.0), 1.0, 1.0), // far: weight 0.2
+            rec(Vec3::new(0.0, 0.25, 0.0), 2.0, 1.0), // weight 4: valid
+            rec(Vec3::new(0.0, 0.0, 0.3), 3.0, 1.0), // in front (0.3 above the query's plane)
+        ];
+        let found: Vec<f32> = valid_among(&records, Vec3::ZERO, Vec3::Z, 0.6)
+            .map(|r| r.irradiance.x)
+            .collect();
+        assert_eq!(found, vec![1.0, 2.0]);
+        // A query that cannot be answered finds nothing, however close the records.
+        let nan = Vec3::new(f32::NAN, 0.0, 0.0);
+        assert_eq!(valid_among(&records, nan, Vec3::Z, 0.6).count(), 0);
+        assert_eq!(
+            valid_among(&records, Vec3::ZERO, Vec3::ZERO, 0.6).count(),
+            0
+        );
+    }
+
+    #[test]
+    fn accumulator_keeps_its_query_point() {
+        let p = Vec3::new(1.0, -2.0, 0.5);
+        assert_eq!(Accumulator::new(p, Vec3::Z, 0.5, None).point(), p);
+    }
+
+    #[test]
+    fn foreign_counts_other_workers_only() {
+        // One record of the asker, two of another worker: two foreign, not one.
+        let sealed = |x: f32, worker: u32, seq: u64| {
+            rec(Vec3::X * x, 1.0, 1.0).sealed(RecordId::new(WorkerId::new(worker), 0, seq))
+        };
+        let mut acc = Accumulator::new(Vec3::ZERO, Vec3::Z, 0.5, Some(WorkerId::new(3)));
+        assert!(acc.add(&sealed(0.0, 3, 0)));
+        assert!(acc.add(&sealed(0.1, 4, 0)));
+        assert!(acc.add(&sealed(-0.1, 4, 1)));
+        let out = acc.finish().unwrap();
+        assert_eq!((out.records, out.foreign), (3, 2));
+        // Without an asker nothing is foreign.
+        let mut acc = Accumulator::new(Vec3::ZERO, Vec3::Z, 0.5, None);
+        acc.add(&sealed(0.1, 4, 0));
+        assert_eq!(acc.finish().unwrap().foreign, 0);
+    }
+
+    #[test]
     fn query_validation() {
         assert!(is_valid_query(Vec3::ZERO, Vec3::Z));
         assert!(!is_valid_query(Vec3::new(f32::NAN, 0.0, 0.0), Vec3::Z));

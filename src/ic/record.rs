@@ -162,6 +162,15 @@ impl fmt::Display for InsertError {
 
 impl std::error::Error for InsertError {}
 
+/// One step of [`Record::digest`]: xor `word` into the state, multiply by an odd constant
+/// (a bijection modulo 2^64), then xor-shift right by 29 (a bijection too: the top 29 bits are
+/// kept, and from them each lower group in turn).
+fn mix(h: u64, word: u64) -> u64 {
+    const MULTIPLIER: u64 = 0x9e37_79b9_7f4a_7c15;
+    let h = (h ^ word).wrapping_mul(MULTIPLIER);
+    h ^ (h >> 29)
+}
+
 impl Record {
     /// How far a normal's length may stray from 1.
     pub const NORMAL_TOLERANCE: f32 = 1e-3;
@@ -246,15 +255,13 @@ impl Record {
     }
 
     /// A word-at-a-time hash of the bit patterns of every field but `check`: each 32- or 64-bit
-    /// word is xored in, then the state is multiplied by an odd constant and xor-shifted. Both steps
-    /// are bijections, so changing any single word always changes the digest.
+    /// word is xored in, then the state is multiplied by an odd constant and xor-shifted ([`mix`]).
+    /// Every step is a bijection of the state, so records that differ in one word reach the last
+    /// step with different states; the final `| 1` merges only states that differ in bit 0, so such
+    /// a change goes unseen with probability 2^-63.
     fn digest(&self) -> u64 {
-        const MULTIPLIER: u64 = 0x9e37_79b9_7f4a_7c15;
         let mut h: u64 = 0xcbf2_9ce4_8422_2325;
-        let mut eat = |word: u64| {
-            h = (h ^ word).wrapping_mul(MULTIPLIER);
-            h ^= h >> 29;
-        };
+        let mut eat = |word: u64| h = mix(h, word);
         let mut vec = |v: Vec3| {
             v.to_array()
                 .into_iter()
@@ -283,6 +290,77 @@ mod tests {
     #[should_panic(expected = "exceeds WorkerId::MAX")]
     fn worker_numbers_beyond_16_bits_are_refused() {
         let _ = WorkerId::new(WorkerId::MAX + 1);
+    }
+
+    #[test]
+    fn worker_numbers_fill_16_bits() {
+        assert_eq!(WorkerId::MAX, 65_535);
+        let last = WorkerId::new(65_535);
+        assert_eq!(last.index(), 65_535);
+        assert_eq!(WorkerId::new(7).index(), 7);
+        assert_eq!(last.to_string(), "worker 65535");
+        // The largest worker survives packing into an id beside the largest frame and count.
+        let id = RecordId::new(last, 0xffff, 0xffff_ffff);
+        assert_eq!(id.worker(), last);
+        assert_eq!(id.get(), u64::MAX);
+    }
+
+    #[test]
+    fn record_id_packed_value() {
+        let id = RecordId::new(WorkerId::new(2), 5, 9);
+        assert_eq!(id.get(), (2 << 48) | (5 << 32) | 9);
+        // Frames and counts wrap into their fields instead of spilling into the worker's.
+        let wrapped = RecordId::new(WorkerId::new(2), 0x1_0005, 0x1_0000_0009);
+        assert_eq!(wrapped, id);
+    }
+
+    #[test]
+    fn zero_irradiance_is_valid() {
+        // A record that saw no light (a dark corner) is a real sample, not an error.
+        let dark = Record::new(Vec3::ZERO, Vec3::Z, Vec3::ZERO, 1.0);
+        assert_eq!(dark.validate(), Ok(()));
+    }
+
+    /// The inverse of one step of the digest (`h = (h ^ w) * M; h ^= h >> 29`), written from the
+    /// definition: undo the xor-shift, multiply by `M`'s inverse modulo 2^64, xor the word back.
+    fn unmix(mut h: u64, word: u64) -> u64 {
+        // x ^ (x >> 29) is undone by repeating the shift until it runs out of bits (3 * 29 > 64).
+        let mut x = h;
+        for _ in 0..3 {
+            x = h ^ (x >> 29);
+        }
+        h = x;
+        // Newton's iteration for the inverse of an odd number modulo 2^64.
+        let m: u64 = 0x9e37_79b9_7f4a_7c15;
+        let mut inv: u64 = m;
+        for _ in 0..6 {
+            inv = inv.wrapping_mul(2u64.wrapping_sub(m.wrapping_mul(inv)));
+        }
+        assert_eq!(m.wrapping_mul(inv), 1);
+        h.wrapping_mul(inv) ^ word
+    }
+
+    #[test]
+    fn each_digest_step_is_a_bijection() {
+        // The claim the torn-read check rests on: every step of the digest can be undone, so two
+        // records that differ in one word never reach the last step with the same state.
+        let mut state = 0x0123_4567_89ab_cdefu64;
+        for k in 0..1000u64 {
+            let word = k.wrapping_mul(0x2545_f491_4f6c_dd1d) ^ (k << 40);
+            let next = mix(state, word);
+            assert_eq!(unmix(next, word), state, "step {k} cannot be undone");
+            state = next;
+        }
+    }
+
+    #[test]
+    fn a_sealed_check_is_never_even() {
+        // The last step sets the low bit, so no sealed record has check 0 (an unwritten slot's).
+        for k in 0..64u64 {
+            let r = Record::new(Vec3::splat(k as f32), Vec3::Z, Vec3::ONE, 1.0 + k as f32)
+                .sealed(RecordId::new(WorkerId::new(1), 0, k));
+            assert_eq!(r.check & 1, 1, "record {k}");
+        }
     }
 
     #[test]
