@@ -479,7 +479,8 @@ pub type Linearization = Vec<usize>;
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct NotLinearizable {
     /// The longest sequence of operations the search linearized (a valid sequential run of the
-    /// specification, respecting real-time order) before it had to backtrack for good.
+    /// specification, respecting real-time order) before it had to backtrack for good; of several
+    /// as long, the first the search reached (it tries operations in invocation order).
     pub longest: Linearization,
     /// The operations that could have come next after `longest` (every operation invoked before the
     /// first return among those not linearized): none of them could be, or each led to a dead end.
@@ -689,8 +690,9 @@ pub fn shrink<S: Specification>(
             let mut start = 0;
             while start < h.len() {
                 let chunk: Vec<usize> = (start..(start + size).min(h.len())).collect();
+                // The chunk is never empty (start < len), so the candidate is always shorter.
                 let candidate = without(&h, &chunk);
-                if candidate.len() < h.len() && fails(&candidate) {
+                if fails(&candidate) {
                     h = candidate;
                 } else {
                     start += size;

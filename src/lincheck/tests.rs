@@ -221,3 +221,165 @@ fn logs_of_another_recorder_are_refused() {
     let log: ThreadLog<RegisterOp, RegisterRet> = r2.log(0);
     r1.into_history([log]);
 }
+
+/// A counter whose `Inc` returns the new value; it keeps every default of [`Specification`].
+#[derive(Clone, Debug, Default, PartialEq, Eq, Hash)]
+struct Counter(u32);
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Inc;
+
+impl Specification for Counter {
+    type Op = Inc;
+    type Ret = u32;
+    fn apply(&mut self, _: &Inc) -> u32 {
+        self.0 += 1;
+        self.0
+    }
+}
+
+#[test]
+fn by_default_no_operation_observes_another() {
+    assert!(!Counter::observes(&Inc, &1, &Inc));
+    // So shrinking removes one increment at a time and leaves the others' results alone: three
+    // sequential increments that all return 1 shrink to two (either pair still fails), not to
+    // three, which a spec whose every operation observed every other would keep.
+    let h = HistoryBuilder::new()
+        .call(0, Inc, 1)
+        .call(1, Inc, 1)
+        .call(0, Inc, 1)
+        .build();
+    let (small, _) = shrink_nonlinearizable(&h, &Counter::default());
+    assert_eq!(small.len(), 2, "{}", small.render(None));
+}
+
+#[test]
+fn precedes_is_strict_real_time_order() {
+    let op = |invoked: u64, returned: Option<u64>| Operation {
+        thread: 0,
+        op: Read,
+        ret: returned.map(|_| Value(0)),
+        invoked,
+        returned,
+    };
+    assert!(op(0, Some(1)).precedes(&op(2, Some(3))));
+    // Returned at the very ticket the other was invoked: not before it.
+    assert!(!op(0, Some(2)).precedes(&op(2, Some(3))));
+    assert!(
+        !op(0, None).precedes(&op(2, Some(3))),
+        "a pending operation never returned"
+    );
+}
+
+#[test]
+fn history_and_log_accessors() {
+    let empty: History<RegisterOp, RegisterRet> = HistoryBuilder::new().build();
+    assert!(empty.is_empty() && empty.len() == 0 && empty.threads() == 0);
+    let h = noisy_stale_read();
+    assert!(!h.is_empty());
+    // `filter` keeps exactly the operations asked for, tickets unchanged.
+    let odd = h.filter(|i| i % 2 == 1);
+    assert_eq!(odd.len(), h.len() / 2);
+    for (k, o) in odd.operations().iter().enumerate() {
+        assert_eq!(*o, h.operations()[2 * k + 1]);
+    }
+
+    let rec = Recorder::new();
+    let mut log: ThreadLog<RegisterOp, RegisterRet> = rec.log(3);
+    assert_eq!(log.thread(), 3);
+    assert!(log.is_empty() && log.len() == 0);
+    log.reserve(40);
+    assert!(log.ops.capacity() >= 40);
+    log.invoke(Write(2));
+    assert_eq!(log.pending_op_mut(), Some(&mut Write(2)));
+    log.ret(Done);
+    log.invoke(Read);
+    log.ret(Value(2));
+    assert!(!log.is_empty() && log.len() == 2);
+    assert_eq!(rec.into_history([log]).operations()[1].thread, 3);
+}
+
+#[test]
+fn a_failure_reports_the_first_longest_prefix_its_steps_and_what_is_stuck() {
+    // The stale read of `stale_read_is_not_linearizable`: the search linearizes the write (one
+    // step), fails the read (a second), backtracks and gives up: 2 steps.
+    let stale = HistoryBuilder::new()
+        .call(0, Write(1), Done)
+        .call(1, Read, Value(0))
+        .build();
+    assert_eq!(reg(&stale).unwrap_err().steps, 2);
+
+    // Two concurrent writes, then a read of a value neither wrote. The search reaches two
+    // prefixes of length 2, (W1, W2) and then (W2, W1); it reports the first. The read (#2) is
+    // what cannot come next.
+    let h = HistoryBuilder::new()
+        .invoke(0, Write(1))
+        .invoke(1, Write(2))
+        .ret(0, Done)
+        .ret(1, Done)
+        .call(2, Read, Value(3))
+        .build();
+    let err = reg(&h).unwrap_err();
+    assert_eq!(err.longest, vec![0, 1]);
+    assert_eq!(err.stuck, vec![2]);
+    // Every configuration: W1, W2 (W1 first); R fails; W2, W1 (W2 first); R fails: 6 steps.
+    assert_eq!(err.steps, 6);
+    assert!(err
+        .to_string()
+        .contains("2 operations linearized at most, stuck before [2] (6 steps)"));
+}
+
+/// Counts how often the shrinker asks whether a history still fails.
+fn shrink_calls(h: &History<RegisterOp, RegisterRet>) -> (History<RegisterOp, RegisterRet>, usize) {
+    let mut calls = 0;
+    let small = shrink::<Register>(h, |c| {
+        calls += 1;
+        reg(c).is_err()
+    });
+    (small, calls)
+}
+
+#[test]
+fn a_thread_of_pure_noise_goes_in_one_step() {
+    // Thread 3 reads the initial 0 three hundred times first; then the stale read of
+    // `noisy_stale_read` happens on threads 0-2. Removing thread suffixes takes thread 3's whole
+    // log at its first try, so the shrinker asks 8 questions, not hundreds.
+    let mut b = HistoryBuilder::new();
+    for _ in 0..300 {
+        b = b.call(3, Read, Value(0));
+    }
+    let h = b
+        .call(0, Write(1), Done)
+        .call(1, Write(6), Done)
+        .call(2, Read, Value(1))
+        .build();
+    let (small, calls) = shrink_calls(&h);
+    assert_eq!(small.len(), 3);
+    assert!(calls <= 12, "{calls} calls to shrink a thread of noise");
+}
+
+#[test]
+fn noise_before_every_needed_operation_goes_in_halving_chunks() {
+    // Each of the three needed operations comes after 100 reads of 0 on its own thread, so no
+    // thread suffix can go without a needed operation (3 x 101 tries fail): the chunks must remove
+    // the noise. Halving chunks take it in 21 questions; one operation at a time would take two
+    // passes of about 150 each.
+    let mut b = HistoryBuilder::new();
+    for t in 0..3 {
+        for _ in 0..100 {
+            b = b.call(t, Read, Value(0));
+        }
+    }
+    let h = b
+        .call(0, Write(1), Done)
+        .call(1, Write(6), Done)
+        .call(2, Read, Value(1))
+        .build();
+    let (small, calls) = shrink_calls(&h);
+    let ops: Vec<RegisterOp> = small.operations().iter().map(|o| o.op).collect();
+    assert_eq!(ops, vec![Write(1), Write(6), Read]);
+    assert!(
+        calls <= 303 + 60,
+        "{calls} calls to shrink interleaved noise"
+    );
+}
