@@ -383,3 +383,64 @@ fn noise_before_every_needed_operation_goes_in_halving_chunks() {
         "{calls} calls to shrink interleaved noise"
     );
 }
+
+#[test]
+fn render_truncates_only_what_is_wider_than_100_and_describes_the_failure() {
+    // A register value wide enough to print past 100 characters.
+    let wide = i64::MAX;
+    let ops = (0..8).fold(HistoryBuilder::new(), |b, k| {
+        b.call(0, Write(wide - k), Done)
+    });
+    let h = ops
+        .invoke(1, Write(3))
+        .call(2, Read, Value(0))
+        .call(2, Read, Value(wide))
+        .build();
+    let text = h.render(None);
+    // The longest text ("#10 -> Value(9223372036854775807)", 33 characters) sets the column
+    // width and is printed whole.
+    assert!(text.contains("#10 -> Value(9223372036854775807)"), "{text}");
+    // A stale read of the first write, seen by a thread after the last write returned: the
+    // failure lists the longest prefix and the stuck operations, each described.
+    let failing = HistoryBuilder::new()
+        .call(0, Write(1), Done)
+        .invoke(1, Write(5))
+        .call(0, Read, Value(0))
+        .build();
+    let failure = reg(&failing).unwrap_err();
+    let text = failing.render(Some(&failure));
+    assert!(text.contains("#0 (thread 0) Write(1) -> Done"), "{text}");
+    assert!(text.contains("#1 (thread 1) Write(5) (pending)"), "{text}");
+    assert!(text.contains("#2 (thread 0) Read -> Value(0)"), "{text}");
+
+    // 120 characters of operation: cut to the widest column, 100, ending in "...".
+    #[derive(Clone, Debug)]
+    struct Long(#[allow(dead_code)] String);
+    let long = History::from_operations(vec![Operation {
+        thread: 0,
+        op: Long("x".repeat(110)),
+        ret: Some(()),
+        invoked: 0,
+        returned: Some(1),
+    }]);
+    let text = long.render(None);
+    let row = text.lines().nth(2).unwrap();
+    assert_eq!(row.chars().count(), 100, "{text}");
+    assert!(
+        row.starts_with("#0 Long(\"xxx") && row.ends_with("xxx..."),
+        "{text}"
+    );
+    // The column is exactly as wide as its longest cell when that is under 100: nothing cut.
+    let exact = History::from_operations(vec![Operation {
+        thread: 0,
+        op: Long("y".repeat(40)),
+        ret: Some(()),
+        invoked: 0,
+        returned: Some(1),
+    }]);
+    let text = exact.render(None);
+    assert!(
+        text.contains(&format!("#0 Long(\"{}\")", "y".repeat(40))),
+        "{text}"
+    );
+}
