@@ -120,7 +120,9 @@ run_scope() {
             ;;
         lincheck)
             stage lincheck yes -f 'src/lincheck/**' --features shuttle -- --lib
-            stage lincheck no -f 'src/lincheck/**' -- --lib --test lincheck
+            # The lib's checker tests ran in stage 1 (they are the same under shuttle): only the
+            # real-thread suite is new here, and leaving --lib out saves a second crate build.
+            stage lincheck no -f 'src/lincheck/**' -- --test lincheck
             ;;
         *)
             echo "unknown scope $scope (wf, cache, ic, lincheck or all)" >&2
