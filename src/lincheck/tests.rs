@@ -444,3 +444,98 @@ fn render_truncates_only_what_is_wider_than_100_and_describes_the_failure() {
         "{text}"
     );
 }
+
+#[test]
+fn a_set_read_observes_only_the_insert_of_what_it_found() {
+    use SetOp::{Contains, Insert, Remove};
+    assert!(IntSet::observes(&Contains(3), &true, &Insert(3)));
+    assert!(IntSet::observes(&Remove(3), &true, &Insert(3)));
+    assert!(!IntSet::observes(&Contains(3), &false, &Insert(3)));
+    assert!(!IntSet::observes(&Contains(4), &true, &Insert(3)));
+    assert!(!IntSet::observes(&Insert(3), &true, &Insert(3)));
+    // Shrinking a lost insert amid noise keeps the insert and the read that missed it; the reads
+    // that found 5 go with the insert of 5 they observed.
+    let h = HistoryBuilder::new()
+        .call(1, Insert(5), true)
+        .call(2, Contains(5), true)
+        .call(0, Insert(3), true)
+        .call(2, Remove(5), true)
+        .call(1, Contains(3), false)
+        .build();
+    let (small, _) = shrink_nonlinearizable(&h, &IntSet::default());
+    let ops: Vec<SetOp> = small.operations().iter().map(|o| o.op).collect();
+    assert_eq!(ops, vec![Insert(3), Contains(3)]);
+}
+
+#[test]
+fn cache_operations_print_as_the_failure_reports_show_them() {
+    use crate::cache::Inserted;
+    use crate::ic::{InsertError, Record, RecordId, WorkerId};
+    use glam::Vec3;
+    let id = RecordId::new(WorkerId::new(1), 0, 2);
+    assert_eq!(InsertId::Known(id).to_string(), "r1.0.2");
+    assert_eq!(InsertId::Unknown(WorkerId::new(4)).to_string(), "r4.?");
+    let r = Record::new(Vec3::new(1.0, 2.5, -3.0), Vec3::Z, Vec3::ONE, 0.5);
+    assert_eq!(
+        format!("{:?}", CacheOp::insert(id, r)),
+        "insert r1.0.2 (1.00,2.50,-3.00) R=0.50"
+    );
+    assert_eq!(
+        format!("{:?}", CacheOp::insert_unknown(WorkerId::new(4), r)),
+        "insert r4.? (1.00,2.50,-3.00) R=0.50"
+    );
+    let lookup = CacheOp::Lookup {
+        point: Vec3::new(0.0, 1.0, 2.0),
+        normal: Vec3::Z,
+    };
+    assert_eq!(format!("{lookup:?}"), "lookup (0.00,1.00,2.00)");
+    let other = RecordId::new(WorkerId::new(0), 0, 7);
+    let found = |ids: Vec<RecordId>, torn| format!("{:?}", CacheRet::Found { ids, torn });
+    assert_eq!(found(vec![], 0), "{}");
+    assert_eq!(found(vec![id], 0), "{r1.0.2}");
+    assert_eq!(found(vec![other, id], 0), "{r0.0.7, r1.0.2}");
+    assert_eq!(found(vec![id], 2), "{r1.0.2} +2 torn");
+    assert_eq!(
+        format!("{:?}", CacheRet::Inserted(Inserted::Stored(id))),
+        "Stored"
+    );
+    assert_eq!(
+        format!("{:?}", CacheRet::Inserted(Inserted::Discarded(id))),
+        "Discarded"
+    );
+    assert_eq!(
+        format!("{:?}", CacheRet::Inserted(Inserted::NotCached(id))),
+        "NotCached"
+    );
+    let e = InsertError::NonPositiveRadius(0.0);
+    assert_eq!(
+        format!("{:?}", CacheRet::Rejected(e)),
+        format!("Rejected({e})")
+    );
+}
+
+#[test]
+fn set_violations_name_the_operations_and_the_record() {
+    use crate::ic::{RecordId, WorkerId};
+    let id = RecordId::new(WorkerId::new(2), 1, 3);
+    let cases = [
+        (SetViolation::Phantom { lookup: 4, id }, "lookup #4 returned r2.1.3, which no insert stored"),
+        (
+            SetViolation::FromTheFuture { lookup: 4, insert: 6, id },
+            "lookup #4 returned r2.1.3, whose insert #6 began after the lookup ended",
+        ),
+        (
+            SetViolation::Lost { lookup: 4, insert: 1, id },
+            "lookup #4 missed r2.1.3, valid there, whose insert #1 returned before the lookup began",
+        ),
+        (
+            SetViolation::Forgotten { earlier: 2, later: 5, id },
+            "lookup #5 missed r2.1.3, valid there, which lookup #2 of the same thread returned",
+        ),
+        (SetViolation::Duplicate { lookup: 4, id }, "lookup #4 returned r2.1.3 more than once"),
+        (SetViolation::Torn { lookup: 4, count: 2 }, "lookup #4 met 2 torn records"),
+    ];
+    for (v, text) in cases {
+        assert_eq!(v.to_string(), text);
+    }
+}
