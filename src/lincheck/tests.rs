@@ -539,3 +539,20 @@ fn set_violations_name_the_operations_and_the_record() {
         assert_eq!(v.to_string(), text);
     }
 }
+
+#[test]
+fn bitset_sets_and_clears_single_bits_across_words() {
+    let mut b = Bitset::new(130);
+    assert_eq!(b.0.len(), 3);
+    b.set(3);
+    b.set(70);
+    b.set(129);
+    b.clear(3);
+    let mut only = Bitset::new(130);
+    only.set(70);
+    only.set(129);
+    assert_eq!(b, only);
+    b.clear(129);
+    b.clear(70);
+    assert_eq!(b, Bitset::new(130));
+}
