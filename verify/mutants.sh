@@ -30,19 +30,19 @@ common=(--in-place --no-shuffle --minimum-test-timeout 60)
 real_thread_suites=(--lib --test agreement --test stress --test robustness --test leaks --test wf_api
     --test lookup_work)
 
-# `WFIC_MUTANTS_RESUME=1` keeps the scope's results and skips its first stage (to rerun only the
-# later stages on the mutants it left alive, e.g. after adding a test).
+# `WFIC_MUTANTS_RESUME=1` keeps the scope's results and runs every stage again with `--iterate`,
+# on the mutants the earlier stages left alive only (after adding a test: the fast stage first,
+# so a new unit test kills its mutants in seconds).
 resume=${WFIC_MUTANTS_RESUME:-0}
 
 # stage SCOPE FIRST? [cargo-mutants options...] -- [cargo test options...]
 stage() {
     local scope=$1 first=$2
     shift 2
-    if [ "$first" = yes ] && [ "$resume" = 1 ]; then return; fi
     local out="$root/results/mutants/$scope"
     mkdir -p "$out"
     local iterate=()
-    [ "$first" = no ] && iterate=(--iterate)
+    if [ "$first" = no ] || [ "$resume" = 1 ]; then iterate=(--iterate); fi
     echo "== mutants $scope: cargo mutants ${common[*]} ${iterate[*]} $* (at $(git rev-parse --short HEAD))" |
         tee -a "$out/commands.txt"
     # Exit status 2 means "some mutants were missed", 3 "some timed out": results, not errors.
