@@ -274,7 +274,8 @@ fn precedes_is_strict_real_time_order() {
 #[test]
 fn history_and_log_accessors() {
     let empty: History<RegisterOp, RegisterRet> = HistoryBuilder::new().build();
-    assert!(empty.is_empty() && empty.len() == 0 && empty.threads() == 0);
+    assert!(empty.is_empty());
+    assert_eq!((empty.len(), empty.threads()), (0, 0));
     let h = noisy_stale_read();
     assert!(!h.is_empty());
     // `filter` keeps exactly the operations asked for, tickets unchanged.
@@ -287,7 +288,8 @@ fn history_and_log_accessors() {
     let rec = Recorder::new();
     let mut log: ThreadLog<RegisterOp, RegisterRet> = rec.log(3);
     assert_eq!(log.thread(), 3);
-    assert!(log.is_empty() && log.len() == 0);
+    assert!(log.is_empty());
+    assert_eq!(log.len(), 0);
     log.reserve(40);
     assert!(log.ops.capacity() >= 40);
     log.invoke(Write(2));
