@@ -448,3 +448,121 @@ pub(crate) fn collect_valid(
     });
     Work { nodes, records }
 }
+
+#[cfg(all(test, not(checker)))]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn config_errors_say_what_is_wrong() {
+        for a in [0.0, -0.1, 2.01, f32::NAN] {
+            let e = CacheConfig::new(Vec3::ZERO, Vec3::ONE, a).unwrap_err();
+            assert!(matches!(e, ConfigError::Accuracy(_)), "{a}");
+        }
+        assert!(CacheConfig::new(Vec3::ZERO, Vec3::ONE, 2.0).is_ok());
+        let e = CacheConfig::new(Vec3::ZERO, Vec3::ONE, 0.0).unwrap_err();
+        assert_eq!(e.to_string(), "accuracy 0 is not in (0, 2]");
+        let e = CacheConfig::new(Vec3::ONE, Vec3::ZERO, 0.5).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "cache bounds [1, 1, 1]..[0, 0, 0] are empty or not finite"
+        );
+    }
+
+    #[test]
+    fn config_root_accuracy_check_and_depth() {
+        let c = CacheConfig::new(Vec3::new(-2.0, 0.0, 0.0), Vec3::new(6.0, 2.0, 4.0), 0.4).unwrap();
+        assert_eq!(c.accuracy(), 0.4);
+        assert_eq!(c.geometry().accuracy, 0.4);
+        // The smallest cube around the box, enlarged by 1%: centre (2, 1, 2), half 4 * 1.01.
+        assert_eq!(c.root().center, Vec3::new(2.0, 1.0, 2.0));
+        assert!((c.root().half - 4.04).abs() < 1e-6);
+        assert_eq!(c.geometry().root, c.root());
+        let inside = Record::new(Vec3::new(5.9, 4.9, 5.9), Vec3::Z, Vec3::ONE, 1.0);
+        assert_eq!(c.check(&inside), Ok(()));
+        let outside = Record::new(Vec3::new(6.1, 1.0, 2.0), Vec3::Z, Vec3::ONE, 1.0);
+        assert!(matches!(
+            c.check(&outside),
+            Err(InsertError::OutOfBounds { half_size, .. }) if (half_size - 4.04).abs() < 1e-6
+        ));
+        let bad = Record::new(Vec3::ONE, Vec3::Z, Vec3::ONE, -1.0);
+        assert_eq!(c.check(&bad), Err(InsertError::NonPositiveRadius(-1.0)));
+        // Depth follows the influence radius a R: a small record goes deeper than a large one,
+        // each where the geometry places its radius.
+        let small = Record::new(Vec3::ONE, Vec3::Z, Vec3::ONE, 0.05);
+        let large = Record::new(Vec3::ONE, Vec3::Z, Vec3::ONE, 5.0);
+        assert_eq!(c.depth_of(&small), c.geometry().placement_depth(0.02));
+        assert_eq!(c.depth_of(&large), c.geometry().placement_depth(2.0));
+        assert!(c.depth_of(&small) >= 2, "{}", c.depth_of(&small));
+        assert!(c.depth_of(&large) < c.depth_of(&small));
+    }
+
+    #[test]
+    fn inserted_names_its_id() {
+        let id = RecordId::new(crate::ic::WorkerId::new(3), 1, 4);
+        for outcome in [
+            Inserted::Stored(id),
+            Inserted::Discarded(id),
+            Inserted::NotCached(id),
+        ] {
+            assert_eq!(outcome.id(), id);
+        }
+    }
+
+    #[test]
+    fn worker_stats_add_every_counter_and_keep_the_maxima() {
+        let a = WorkerStats {
+            lookups: 1,
+            hits: 2,
+            shared_hits: 3,
+            inserts: 4,
+            rejected: 5,
+            stored: 6,
+            discarded: 7,
+            cas_failures: 8,
+            lock_wait: Duration::from_micros(9),
+            max_insert_steps: 10,
+            max_lookup_nodes: 3,
+            max_lookup_records: 12,
+            lookup_nodes: 13,
+            lookup_records: 14,
+        };
+        let b = WorkerStats {
+            lookups: 100,
+            hits: 200,
+            shared_hits: 300,
+            inserts: 400,
+            rejected: 500,
+            stored: 600,
+            discarded: 700,
+            cas_failures: 800,
+            lock_wait: Duration::from_micros(900),
+            max_insert_steps: 2,
+            max_lookup_nodes: 30,
+            max_lookup_records: 1,
+            lookup_nodes: 1300,
+            lookup_records: 1400,
+        };
+        let mut sum = a;
+        sum += &b;
+        assert_eq!(
+            sum,
+            WorkerStats {
+                lookups: 101,
+                hits: 202,
+                shared_hits: 303,
+                inserts: 404,
+                rejected: 505,
+                stored: 606,
+                discarded: 707,
+                cas_failures: 808,
+                lock_wait: Duration::from_micros(909),
+                max_insert_steps: 10,
+                max_lookup_nodes: 30,
+                max_lookup_records: 12,
+                lookup_nodes: 1313,
+                lookup_records: 1414,
+            }
+        );
+    }
+}
