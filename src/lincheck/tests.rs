@@ -558,3 +558,177 @@ fn bitset_sets_and_clears_single_bits_across_words() {
     b.clear(70);
     assert_eq!(b, Bitset::new(130));
 }
+
+mod cache_spec {
+    use super::super::*;
+    use crate::cache::{CacheConfig, Inserted};
+    use crate::ic::{Record, RecordId, WorkerId};
+    use glam::Vec3;
+    use std::hash::{DefaultHasher, Hash, Hasher};
+
+    fn world() -> CacheConfig {
+        CacheConfig::new(Vec3::ZERO, Vec3::splat(10.0), 0.5).unwrap()
+    }
+
+    fn id(worker: u32, seq: u64) -> RecordId {
+        RecordId::new(WorkerId::new(worker), 0, seq)
+    }
+
+    fn record(x: f32) -> Record {
+        Record::new(Vec3::new(x, 3.0, 3.0), Vec3::Z, Vec3::ONE, 0.5)
+    }
+
+    fn hash(s: &CacheSpec) -> u64 {
+        let mut h = DefaultHasher::new();
+        s.hash(&mut h);
+        h.finish()
+    }
+
+    /// `base` with `op` applied as a pending operation.
+    fn pending(base: &CacheSpec, op: CacheOp) -> CacheSpec {
+        let mut s = base.clone();
+        s.apply_pending(&op);
+        s
+    }
+
+    #[test]
+    fn states_compare_by_ids_spent_ids_and_unnamed_records() {
+        let empty = CacheSpec::new(world());
+        let mut one = empty.clone();
+        one.apply(&CacheOp::insert(id(1, 0), record(3.0)));
+        assert_eq!(one.records().len(), 1);
+        assert_eq!(one.records()[0].id(), id(1, 0));
+        // The same id reached through another record (within a history an id names one record),
+        // in a state that shares nothing with `one`.
+        let mut again = empty.clone();
+        again.apply(&CacheOp::insert(id(1, 0), record(4.0)));
+        assert_eq!(one, again);
+        assert_eq!(hash(&one), hash(&again));
+        let mut other = empty.clone();
+        other.apply(&CacheOp::insert(id(1, 1), record(3.0)));
+        assert_ne!(one, other);
+        assert_ne!(hash(&one), hash(&other));
+        assert_ne!(one, empty);
+
+        // An id spent by a discarded insert.
+        let mut spent = empty.clone();
+        let discarded = CacheRet::Inserted(Inserted::Discarded(id(1, 0)));
+        assert!(spent.step(&CacheOp::insert(id(1, 0), record(3.0)), &discarded));
+        assert_eq!(spent.records().len(), 0);
+        assert_ne!(spent, empty);
+        assert_ne!(hash(&spent), hash(&empty));
+        // The spent id is not fresh any more: storing a record under it cannot be linearized.
+        let stored = CacheRet::Inserted(Inserted::Stored(id(1, 0)));
+        assert!(!spent
+            .clone()
+            .step(&CacheOp::insert(id(1, 0), record(3.0)), &stored));
+        assert!(!one
+            .clone()
+            .step(&CacheOp::insert(id(1, 0), record(3.0)), &stored));
+        assert!(empty
+            .clone()
+            .step(&CacheOp::insert(id(1, 0), record(3.0)), &stored));
+
+        // Unnamed records (pending inserts whose id is unknown) compare by worker and bits.
+        let w1 = |x| CacheOp::insert_unknown(WorkerId::new(1), record(x));
+        let w2 = |x| CacheOp::insert_unknown(WorkerId::new(2), record(x));
+        let a = pending(&empty, w1(3.0));
+        assert_eq!(a, pending(&empty, w1(3.0)));
+        assert_eq!(hash(&a), hash(&pending(&empty, w1(3.0))));
+        assert_ne!(a, empty);
+        assert_ne!(a, pending(&empty, w2(3.0)));
+        assert_ne!(a, pending(&empty, w1(3.5)));
+        assert_ne!(hash(&a), hash(&pending(&empty, w1(3.5))));
+        assert_ne!(a, pending(&a, w1(3.5)));
+        assert_ne!(hash(&a), hash(&pending(&a, w1(3.5))));
+        // The same records unnamed in two states, differing in what is stored.
+        assert_ne!(pending(&one, w1(3.0)), a);
+        // Every field's bits count: a record differing only in a gradient is another record.
+        let g = record(3.0).with_gradients([Vec3::X; 3], [Vec3::ZERO; 3]);
+        let b = pending(&empty, CacheOp::insert_unknown(WorkerId::new(1), g));
+        assert_ne!(a, b);
+        assert_ne!(hash(&a), hash(&b));
+    }
+
+    #[test]
+    fn a_pending_insert_stores_only_a_valid_record_under_a_fresh_id() {
+        let empty = CacheSpec::new(world());
+        let bad = Record::new(Vec3::splat(3.0), Vec3::Z, Vec3::ONE, -1.0);
+        assert_eq!(pending(&empty, CacheOp::insert(id(1, 0), bad)), empty);
+        assert_eq!(
+            pending(&empty, CacheOp::insert_unknown(WorkerId::new(1), bad)),
+            empty
+        );
+        let one = pending(&empty, CacheOp::insert(id(1, 0), record(3.0)));
+        assert_eq!(one.records().len(), 1);
+        // A second pending insert under a stored id changes nothing.
+        assert_eq!(pending(&one, CacheOp::insert(id(1, 0), record(5.0))), one);
+        assert_eq!(
+            pending(&one, CacheOp::insert(id(1, 0), record(5.0))).records()[0]
+                .position
+                .x,
+            3.0
+        );
+        // A pending lookup changes nothing.
+        let look = CacheOp::Lookup {
+            point: Vec3::splat(3.0),
+            normal: Vec3::Z,
+        };
+        assert_eq!(pending(&one, look), one);
+    }
+
+    #[test]
+    fn a_refusal_must_be_the_one_the_specification_gives() {
+        let empty = CacheSpec::new(world());
+        let bad = Record::new(Vec3::splat(3.0), Vec3::Z, Vec3::ONE, -1.0);
+        let op = CacheOp::insert_unknown(WorkerId::new(1), bad);
+        let right = CacheRet::Rejected(crate::ic::InsertError::NonPositiveRadius(-1.0));
+        let wrong = CacheRet::Rejected(crate::ic::InsertError::NonFinite { field: "radius" });
+        assert!(empty.clone().step(&op, &right));
+        assert!(!empty.clone().step(&op, &wrong));
+        // A valid record refused is not this specification.
+        let good = CacheOp::insert_unknown(WorkerId::new(1), record(3.0));
+        assert!(!empty.clone().step(&good, &right));
+        // Nor is a valid record given no place, or a lookup answered as an insert.
+        let none = CacheRet::Inserted(Inserted::NotCached(id(1, 0)));
+        assert!(!empty
+            .clone()
+            .step(&CacheOp::insert(id(1, 0), record(3.0)), &none));
+        let look = CacheOp::Lookup {
+            point: Vec3::splat(3.0),
+            normal: Vec3::Z,
+        };
+        assert!(!empty.clone().step(
+            &look,
+            &CacheRet::Rejected(crate::ic::InsertError::NonPositiveRadius(1.0))
+        ));
+    }
+
+    #[test]
+    fn a_lookup_observes_the_inserts_whose_records_it_returned() {
+        let look = CacheOp::Lookup {
+            point: Vec3::splat(3.0),
+            normal: Vec3::Z,
+        };
+        let found = CacheRet::Found {
+            ids: vec![id(1, 0), id(2, 4)],
+            torn: 0,
+        };
+        let known = |w, s| CacheOp::insert(id(w, s), record(3.0));
+        let unknown = |w| CacheOp::insert_unknown(WorkerId::new(w), record(3.0));
+        assert!(lookup_observes(&look, &found, &known(2, 4)));
+        assert!(!lookup_observes(&look, &found, &known(2, 5)));
+        assert!(lookup_observes(&look, &found, &unknown(1)));
+        assert!(!lookup_observes(&look, &found, &unknown(3)));
+        // Only lookups observe, and only inserts are observed.
+        let stored = CacheRet::Inserted(Inserted::Stored(id(1, 0)));
+        assert!(!lookup_observes(&known(1, 0), &stored, &known(1, 0)));
+        assert!(!lookup_observes(&look, &found, &look));
+        for other in [known(2, 4), known(2, 5), unknown(1), unknown(3)] {
+            assert_eq!(
+                CacheSpec::observes(&look, &found, &other),
+                lookup_observes(&look, &found, &other)
+            );
+        }
+    }
+}
