@@ -704,6 +704,77 @@ mod cache_spec {
         ));
     }
 
+    /// A lookup at `p` with normal +Z that returned `ids`, stepped on a copy of `s`.
+    fn look(s: &CacheSpec, p: Vec3, ids: &[RecordId]) -> Option<CacheSpec> {
+        let mut s = s.clone();
+        let op = CacheOp::Lookup {
+            point: p,
+            normal: Vec3::Z,
+        };
+        let ret = CacheRet::Found {
+            ids: ids.to_vec(),
+            torn: 0,
+        };
+        s.step(&op, &ret).then_some(s)
+    }
+
+    #[test]
+    fn a_lookup_names_the_unnamed_records_valid_at_its_query() {
+        let p = Vec3::new(3.0, 3.0, 3.0);
+        let far = Vec3::new(8.0, 8.0, 8.0);
+        let mut s = CacheSpec::new(world());
+        s.apply(&CacheOp::insert(id(1, 0), record(3.0)));
+        // Worker 2's pending insert at p, worker 3's far away; neither id is known.
+        let s = pending(&s, CacheOp::insert_unknown(WorkerId::new(2), record(3.1)));
+        let far_record = Record::new(far, Vec3::Z, Vec3::ONE, 0.5);
+        let s = pending(&s, CacheOp::insert_unknown(WorkerId::new(3), far_record));
+
+        // Named and unnamed, sorted, one id of worker 2 for its record: accepted, and the record
+        // is stored under it.
+        let named = look(&s, p, &[id(1, 0), id(2, 5)]).expect("a valid naming");
+        assert_eq!(named.records().len(), 2);
+        assert_eq!(named.records()[1].id(), id(2, 5));
+        // Once named, it must be returned like any stored record.
+        assert!(look(&named, p, &[id(1, 0)]).is_none());
+        assert!(look(&named, p, &[id(1, 0), id(2, 5)]).is_some());
+        // The far record is still unnamed, and a lookup there names it.
+        assert!(look(&named, far, &[]).is_none());
+        let both = look(&named, far, &[id(3, 0)]).expect("the far record named");
+        assert_eq!(both.records().len(), 3);
+
+        // A lookup at p may leave the far record unnamed (it is not valid there).
+        assert!(look(&s, p, &[id(1, 0), id(2, 5)]).is_some());
+        // Not sorted, or a duplicate: refused.
+        assert!(look(&s, p, &[id(2, 5), id(1, 0)]).is_none());
+        assert!(look(&s, p, &[id(1, 0), id(1, 0), id(2, 5)]).is_none());
+        assert!(look(&s, p, &[id(1, 0), id(2, 5), id(2, 5)]).is_none());
+        // The named record missing, an unnamed record missing, or an id too many: refused.
+        assert!(look(&s, p, &[id(2, 5)]).is_none());
+        assert!(look(&s, p, &[id(1, 0)]).is_none());
+        assert!(look(&s, p, &[id(1, 0), id(2, 5), id(2, 6)]).is_none());
+        // Another worker's id for worker 2's record: refused.
+        assert!(look(&s, p, &[id(1, 0), id(3, 5)]).is_none());
+        // An id a discarded insert spent is not fresh: refused; the next one is.
+        let mut spent = s.clone();
+        let discarded = CacheRet::Inserted(Inserted::Discarded(id(2, 5)));
+        assert!(spent.step(&CacheOp::insert(id(2, 5), record(6.0)), &discarded));
+        assert!(look(&spent, p, &[id(1, 0), id(2, 5)]).is_none());
+        assert!(look(&spent, p, &[id(1, 0), id(2, 6)]).is_some());
+        // A query that cannot be answered finds nothing and names nothing.
+        let nan = Vec3::new(f32::NAN, 3.0, 3.0);
+        assert!(look(&s, nan, &[]).is_some());
+        // A torn record is never the specification's.
+        let op = CacheOp::Lookup {
+            point: p,
+            normal: Vec3::Z,
+        };
+        let torn = CacheRet::Found {
+            ids: vec![id(1, 0), id(2, 5)],
+            torn: 1,
+        };
+        assert!(!s.clone().step(&op, &torn));
+    }
+
     #[test]
     fn a_lookup_observes_the_inserts_whose_records_it_returned() {
         let look = CacheOp::Lookup {
