@@ -140,6 +140,8 @@ run_scope() {
             # The lib's checker tests ran in stage 1 (they are the same under shuttle): only the
             # real-thread suite is new here, and leaving --lib out saves a second crate build.
             stage lincheck no -f 'src/lincheck/**' -- --test lincheck
+            # What only the loom build compiles (a full model list's refusal).
+            stage lincheck no -f 'src/lincheck/**' --features loom -- --lib
             ;;
         *)
             echo "unknown scope $scope (wf, cache, ic, lincheck or all)" >&2

@@ -775,6 +775,21 @@ mod cache_spec {
         assert!(!s.clone().step(&op, &torn));
     }
 
+    /// Under loom the lists hold a few slots, and a full one refuses an insert: a no-op the
+    /// specification accepts (a capacity of the model, not an error of the record).
+    #[cfg(feature = "loom")]
+    #[test]
+    fn a_full_model_list_is_a_no_op() {
+        let empty = CacheSpec::new(world());
+        let full = CacheRet::Rejected(crate::ic::InsertError::ListFull);
+        let mut s = empty.clone();
+        assert!(s.step(
+            &CacheOp::insert_unknown(WorkerId::new(1), record(3.0)),
+            &full
+        ));
+        assert_eq!(s, empty);
+    }
+
     #[test]
     fn a_lookup_observes_the_inserts_whose_records_it_returned() {
         let look = CacheOp::Lookup {
