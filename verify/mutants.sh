@@ -26,7 +26,7 @@ if ! cargo mutants --version 2>/dev/null | grep -q "$version"; then
     cargo install cargo-mutants --locked --version "$version"
 fi
 
-common=(--in-place --no-shuffle --minimum-test-timeout 60)
+common=(--in-place --no-shuffle --minimum-test-timeout 20)
 real_thread_suites=(--lib --test agreement --test stress --test robustness --test leaks --test wf_api
     --test lookup_work)
 
