@@ -23,14 +23,17 @@ fn sequential_register_history_is_linearizable_in_its_own_order() {
     assert_eq!(reg(&h), Ok(vec![0, 1, 2, 3]));
 }
 
-#[test]
-fn stale_read_is_not_linearizable() {
-    // Write(1) returns, then a read begins and still sees the initial 0.
-    let h = HistoryBuilder::new()
+/// Write(1) returns, then a read begins and still sees the initial 0.
+fn stale_read() -> History<RegisterOp, RegisterRet> {
+    HistoryBuilder::new()
         .call(0, Write(1), Done)
         .call(1, Read, Value(0))
-        .build();
-    let err = reg(&h).unwrap_err();
+        .build()
+}
+
+#[test]
+fn stale_read_is_not_linearizable() {
+    let err = reg(&stale_read()).unwrap_err();
     assert_eq!(
         err.longest,
         vec![0],
@@ -303,13 +306,9 @@ fn history_and_log_accessors() {
 
 #[test]
 fn a_failure_reports_the_first_longest_prefix_its_steps_and_what_is_stuck() {
-    // The stale read of `stale_read_is_not_linearizable`: the search linearizes the write (one
-    // step), fails the read (a second), backtracks and gives up: 2 steps.
-    let stale = HistoryBuilder::new()
-        .call(0, Write(1), Done)
-        .call(1, Read, Value(0))
-        .build();
-    assert_eq!(reg(&stale).unwrap_err().steps, 2);
+    // The stale read: the search linearizes the write (one step), fails the read (a second),
+    // backtracks and gives up: 2 steps.
+    assert_eq!(reg(&stale_read()).unwrap_err().steps, 2);
 
     // Two concurrent writes, then a read of a value neither wrote. The search reaches two
     // prefixes of length 2, (W1, W2) and then (W2, W1); it reports the first. The read (#2) is
@@ -331,6 +330,18 @@ fn a_failure_reports_the_first_longest_prefix_its_steps_and_what_is_stuck() {
         .contains("2 operations linearized at most, stuck before [2] (6 steps)"));
 }
 
+/// `noise` followed by a stale read: Write(1) on thread 0, Write(6) on thread 1, then a read of 1
+/// on thread 2, each returning before the next begins.
+fn stale_read_after(
+    noise: HistoryBuilder<RegisterOp, RegisterRet>,
+) -> History<RegisterOp, RegisterRet> {
+    noise
+        .call(0, Write(1), Done)
+        .call(1, Write(6), Done)
+        .call(2, Read, Value(1))
+        .build()
+}
+
 /// Counts how often the shrinker asks whether a history still fails.
 fn shrink_calls(h: &History<RegisterOp, RegisterRet>) -> (History<RegisterOp, RegisterRet>, usize) {
     let mut calls = 0;
@@ -350,11 +361,7 @@ fn a_thread_of_pure_noise_goes_in_one_step() {
     for _ in 0..300 {
         b = b.call(3, Read, Value(0));
     }
-    let h = b
-        .call(0, Write(1), Done)
-        .call(1, Write(6), Done)
-        .call(2, Read, Value(1))
-        .build();
+    let h = stale_read_after(b);
     let (small, calls) = shrink_calls(&h);
     assert_eq!(small.len(), 3);
     assert!(calls <= 12, "{calls} calls to shrink a thread of noise");
@@ -372,11 +379,7 @@ fn noise_before_every_needed_operation_goes_in_halving_chunks() {
             b = b.call(t, Read, Value(0));
         }
     }
-    let h = b
-        .call(0, Write(1), Done)
-        .call(1, Write(6), Done)
-        .call(2, Read, Value(1))
-        .build();
+    let h = stale_read_after(b);
     let (small, calls) = shrink_calls(&h);
     let ops: Vec<RegisterOp> = small.operations().iter().map(|o| o.op).collect();
     assert_eq!(ops, vec![Write(1), Write(6), Read]);
@@ -418,14 +421,16 @@ fn render_truncates_only_what_is_wider_than_100_and_describes_the_failure() {
     // 120 characters of operation: cut to the widest column, 100, ending in "...".
     #[derive(Clone, Debug)]
     struct Long(#[allow(dead_code)] String);
-    let long = History::from_operations(vec![Operation {
-        thread: 0,
-        op: Long("x".repeat(110)),
-        ret: Some(()),
-        invoked: 0,
-        returned: Some(1),
-    }]);
-    let text = long.render(None);
+    let one = |text: String| {
+        History::from_operations(vec![Operation {
+            thread: 0,
+            op: Long(text),
+            ret: Some(()),
+            invoked: 0,
+            returned: Some(1),
+        }])
+    };
+    let text = one("x".repeat(110)).render(None);
     let row = text.lines().nth(2).unwrap();
     assert_eq!(row.chars().count(), 100, "{text}");
     assert!(
@@ -433,14 +438,7 @@ fn render_truncates_only_what_is_wider_than_100_and_describes_the_failure() {
         "{text}"
     );
     // The column is exactly as wide as its longest cell when that is under 100: nothing cut.
-    let exact = History::from_operations(vec![Operation {
-        thread: 0,
-        op: Long("y".repeat(40)),
-        ret: Some(()),
-        invoked: 0,
-        returned: Some(1),
-    }]);
-    let text = exact.render(None);
+    let text = one("y".repeat(40)).render(None);
     assert!(
         text.contains(&format!("#0 Long(\"{}\")", "y".repeat(40))),
         "{text}"
