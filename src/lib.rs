@@ -14,11 +14,11 @@
 //!    ([`cache::Scheme`]).
 //! 4. [`lincheck`] — concurrent histories and their checkers: linearizability against a
 //!    sequential specification, and set consistency.
-//! 5. `render` — a compact renderer that drives the caches end to end (not built under the
-//!    model checkers); [`workload`] — a synthetic renderer-like workload for the demo and the
+//! 5. `render` — a compact renderer that drives the caches end to end (feature `renderer`, on
+//!    by default; not built under the model checkers); [`workload`] — a synthetic renderer-like workload for the demo and the
 //!    benchmarks.
 //! 6. `experiment` — the paper's experiments (Table 1, Figures 1–3) as code: Markdown, CSV, PNG
-//!    and SVG plots (not built under the model checkers).
+//!    and SVG plots (feature `renderer`; not built under the model checkers).
 //! 7. `main.rs` — the `wfic` command line.
 //!
 //! The paper mapped to the code, and every deviation from it, is in `paper-notes.md`.
@@ -26,11 +26,11 @@
 #![deny(unsafe_op_in_unsafe_fn)]
 
 pub mod cache;
-#[cfg(not(checker))]
+#[cfg(all(feature = "renderer", not(checker)))]
 pub mod experiment;
 pub mod ic;
 pub mod lincheck;
-#[cfg(not(checker))]
+#[cfg(all(feature = "renderer", not(checker)))]
 pub mod render;
 pub mod rng;
 pub mod sync;
@@ -38,5 +38,5 @@ pub mod workload;
 
 /// The README's example, compiled and run as a doctest.
 #[doc = include_str!("../README.md")]
-#[cfg(all(doctest, not(checker)))]
+#[cfg(all(doctest, feature = "renderer", not(checker)))]
 pub struct ReadmeDoctests;

@@ -29,8 +29,8 @@ impl Rng {
     }
 
     /// The current state (the next output is `mix64(state + GAMMA)`), for deriving streams.
-    // Only the renderer derives streams, and it is not built under the model checkers.
-    #[cfg_attr(checker, allow(dead_code))]
+    // Only the renderer derives streams: it is not built under the model checkers or without its feature.
+    #[cfg_attr(any(checker, not(feature = "renderer")), allow(dead_code))]
     pub(crate) const fn state(&self) -> u64 {
         self.state
     }

@@ -120,15 +120,19 @@ run_scope() {
             stage wf no -f 'src/cache/wf/**' -- "${real_thread_suites[@]}"
             ;;
         cache)
-            # The schemes' own unit tests (frame protocol, scheme list, octree geometry) run in
-            # under a second, and a mutant of src/cache builds them in seconds: they go first. The
-            # loom models next, then the real-thread suites, and the stress suite (a minute a
-            # mutant) last, for whatever is still alive.
-            stage cache yes -f 'src/cache/*.rs' -- --lib
-            stage cache no -f 'src/cache/*.rs' --features loom -- --test loom_lck_lw --test loom_wf
-            stage cache no -f 'src/cache/*.rs' -- --test agreement --test robustness --test leaks \
-                --test wf_api --test lookup_work --test lincheck
-            stage cache no -f 'src/cache/*.rs' -- --test stress
+            # Every stage builds without the renderer (`--no-default-features`): none of these
+            # suites drives it, and a mutant of src/cache then rebuilds the caches, the maths and
+            # the checkers only (about 3 s for the unit tests, against a minute or more with the
+            # renderer, the experiments and the plots). The schemes' own unit tests (frame
+            # protocol, scheme list, octree geometry, the layer's plain types) run in under a
+            # second: they go first. The loom models next, then the real-thread suites, and the
+            # stress suite (a minute a mutant) last, for whatever is still alive.
+            stage cache yes -f 'src/cache/*.rs' --no-default-features -- --lib
+            stage cache no -f 'src/cache/*.rs' --no-default-features --features loom -- \
+                --test loom_lck_lw --test loom_wf
+            stage cache no -f 'src/cache/*.rs' --no-default-features -- --test agreement \
+                --test robustness --test leaks --test wf_api --test lookup_work --test lincheck
+            stage cache no -f 'src/cache/*.rs' --no-default-features -- --test stress
             ;;
         ic)
             # The maths' unit tests also run under the checker features, where the crate is small.
