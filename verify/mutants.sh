@@ -56,6 +56,12 @@ stage() {
     cp "$out"/mutants.out/*.txt "$out"/mutants.out/outcomes.json "$out/stage-$n/"
 }
 
+# `--cargo-arg=--test --cargo-arg=NAME` for each test target named.
+targets() {
+    local t
+    for t in "$@"; do printf -- '--cargo-arg=--test --cargo-arg=%s ' "$t"; done
+}
+
 summary() {
     local scope=$1 filter=$2
     # The mutants the scope has now (a code change between stages moves line numbers, so the
@@ -127,12 +133,14 @@ run_scope() {
             # protocol, scheme list, octree geometry, the layer's plain types) run in under a
             # second: they go first. The loom models next, then the real-thread suites, and the
             # stress suite (a minute a mutant) last, for whatever is still alive.
-            stage cache yes -f 'src/cache/*.rs' --no-default-features -- --lib
-            stage cache no -f 'src/cache/*.rs' --no-default-features --features loom -- \
-                --test loom_lck_lw --test loom_wf
-            stage cache no -f 'src/cache/*.rs' --no-default-features -- --test agreement \
-                --test robustness --test leaks --test wf_api --test lookup_work --test lincheck
-            stage cache no -f 'src/cache/*.rs' --no-default-features -- --test stress
+            # The targets are named with `--cargo-arg` (given to the build as well as the test
+            # run), not after `--` (the test run only), so a mutant builds only what its stage runs.
+            stage cache yes -f 'src/cache/*.rs' --no-default-features --cargo-arg=--lib
+            stage cache no -f 'src/cache/*.rs' --no-default-features --features loom \
+                $(targets loom_lck_lw loom_wf)
+            stage cache no -f 'src/cache/*.rs' --no-default-features \
+                $(targets agreement robustness leaks wf_api lookup_work lincheck)
+            stage cache no -f 'src/cache/*.rs' --no-default-features $(targets stress)
             ;;
         ic)
             # The maths' unit tests also run under the checker features, where the crate is small.
