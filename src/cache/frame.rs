@@ -618,4 +618,34 @@ mod tests {
         let frame = cache.frame();
         frame.run(0, |_, _| ());
     }
+
+    /// Frames are numbered 0, 1, 2, … as they close, and a worker's record ids carry the number,
+    /// so the same worker's records of two frames never share an id.
+    #[test]
+    fn each_closed_frame_advances_the_frame_number() {
+        let mut ledger = Ledger::<()>::new();
+        let worker = WorkerId::new(0);
+        for frame in 0..3 {
+            assert_eq!(ledger.issue(worker), frame);
+            ledger.deposit(Deposit {
+                worker,
+                stats: WorkerStats::default(),
+                local: (),
+            });
+            assert_eq!(ledger.close().len(), 1);
+        }
+        let mut cache = crate::cache::Sequential::new(config());
+        let ids: Vec<_> = (0..3)
+            .map(|_| {
+                let frame = cache.frame();
+                let id = frame.handle().insert(record(1.0)).unwrap().id();
+                frame.close();
+                id
+            })
+            .collect();
+        assert_eq!(
+            ids.iter().map(|id| id.frame()).collect::<Vec<_>>(),
+            [0, 1, 2]
+        );
+    }
 }

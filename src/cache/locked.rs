@@ -310,4 +310,58 @@ mod tests {
         assert_eq!(g, 2);
         assert!(wait >= Duration::from_millis(5));
     }
+
+    /// Each flavour tries its lock before it times: one worker alone reports no wait at all, and a
+    /// lookup and an insert that find the lock held report the time they waited for it.
+    fn waits_are_reported_only_when_real<F: LockFlavour>() {
+        let config = CacheConfig::new(Vec3::ZERO, Vec3::splat(4.0), 0.5).unwrap();
+        let cache = Locked::<F>::new(config);
+        let record = |x: f32| Record::new(Vec3::new(x, 1.0, 1.0), Vec3::Z, Vec3::ONE, 1.0);
+        let mut alone = cache.handle(WorkerId::new(0));
+        for k in 0..100 {
+            alone.insert(record(0.5 + 0.03 * k as f32)).unwrap();
+            alone.lookup(Vec3::new(1.0, 1.0, 1.0), Vec3::Z);
+        }
+        assert_eq!(alone.stats().lock_wait, Duration::ZERO, "{}", F::NAME);
+
+        let held = Duration::from_millis(30);
+        for insert in [false, true] {
+            let guard = cache.tree.write();
+            let started = std::sync::Barrier::new(2);
+            let waited = crate::sync::thread::scope(|s| {
+                let worker = s.spawn(|| {
+                    let mut h = cache.handle(WorkerId::new(if insert { 2 } else { 1 }));
+                    started.wait();
+                    if insert {
+                        h.insert(record(2.0)).unwrap();
+                    } else {
+                        h.lookup(Vec3::ONE, Vec3::Z);
+                    }
+                    h.stats().lock_wait
+                });
+                started.wait();
+                crate::sync::thread::sleep(held);
+                drop(guard);
+                worker.join().unwrap()
+            });
+            // The worker reaches the lock within microseconds of the barrier; half the hold is
+            // a margin no scheduler needs.
+            assert!(
+                waited >= held / 2,
+                "{}: {} waited {waited:?} behind a lock held for {held:?}",
+                F::NAME,
+                if insert { "an insert" } else { "a lookup" }
+            );
+        }
+    }
+
+    #[test]
+    fn mutex_waits_are_reported_only_when_real() {
+        waits_are_reported_only_when_real::<MutexFlavour>();
+    }
+
+    #[test]
+    fn rwlock_waits_are_reported_only_when_real() {
+        waits_are_reported_only_when_real::<RwLockFlavour>();
+    }
 }

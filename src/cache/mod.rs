@@ -565,4 +565,144 @@ mod tests {
             }
         );
     }
+
+    /// A record at `x` on the line y = z = 1, facing +z, of radius 1, sealed as `worker`'s `seq`.
+    fn sealed_at(x: f32, worker: u32, seq: u64) -> Record {
+        Record::new(Vec3::new(x, 1.0, 1.0), Vec3::Z, Vec3::ONE, 1.0).sealed(RecordId::new(
+            WorkerId::new(worker),
+            0,
+            seq,
+        ))
+    }
+
+    /// The bookkeeping every scheme's handle delegates to, counted by hand: record numbering,
+    /// refusals, outcomes, step maxima, each traversal's work, hits and shared hits.
+    #[test]
+    fn a_handle_core_counts_what_its_worker_does() {
+        let config = CacheConfig::new(Vec3::ZERO, Vec3::splat(4.0), 0.5).unwrap();
+        let ledger = Ledger::<()>::new();
+        let me = WorkerId::new(2);
+        let mut core = HandleCore::new(&ledger, me, ());
+        let fresh = |x: f32| Record::new(Vec3::new(x, 1.0, 1.0), Vec3::Z, Vec3::ONE, 1.0);
+
+        // Admission numbers the worker's records 0, 1, 2 in this frame and refuses bad input.
+        let ids: Vec<RecordId> = (0..3)
+            .map(|k| core.admit(&config, fresh(1.0 + k as f32)).unwrap().id())
+            .collect();
+        let expected: Vec<RecordId> = (0..3).map(|k| RecordId::new(me, 0, k)).collect();
+        assert_eq!(ids, expected);
+        assert!(matches!(
+            core.admit(&config, fresh(9.0)),
+            Err(InsertError::OutOfBounds { .. })
+        ));
+        assert_eq!((core.stats.inserts, core.stats.rejected), (3, 1));
+
+        // Outcomes: two stored, one discarded, one not cached (counted nowhere); the most steps.
+        assert_eq!(
+            core.inserted(Inserted::Stored(ids[0]), 3),
+            Inserted::Stored(ids[0])
+        );
+        core.inserted(Inserted::Stored(ids[1]), 5);
+        core.inserted(Inserted::Discarded(ids[2]), 4);
+        core.inserted(Inserted::NotCached(ids[2]), 1);
+        let s = core.stats;
+        assert_eq!((s.stored, s.discarded, s.max_insert_steps), (2, 1, 5));
+
+        // Traversals: maxima per field (from different traversals) and sums.
+        core.traversed(Work {
+            nodes: 3,
+            records: 7,
+        });
+        core.traversed(Work {
+            nodes: 5,
+            records: 2,
+        });
+        let s = core.stats;
+        assert_eq!(
+            (
+                s.max_lookup_nodes,
+                s.max_lookup_records,
+                s.lookup_nodes,
+                s.lookup_records
+            ),
+            (5, 7, 8, 9)
+        );
+        assert_eq!(s.lookups, 0, "a traversal alone is not a lookup");
+
+        // Lookups: one that cannot be answered, a miss, a hit on the worker's own records, a hit
+        // that uses another worker's record.
+        let q = Vec3::new(1.1, 1.0, 1.0);
+        assert!(core.begin_lookup(&config, Vec3::NAN, Vec3::Z).is_none());
+        let miss = core.begin_lookup(&config, q, Vec3::Z).unwrap();
+        assert_eq!(miss.point(), q);
+        assert_eq!(core.end_lookup(&miss, Work::default()), None);
+        let mut own = core.begin_lookup(&config, q, Vec3::Z).unwrap();
+        assert!(own.add(&sealed_at(1.0, 2, 0)) && own.add(&sealed_at(1.2, 2, 1)));
+        let hit = core.end_lookup(&own, Work::default()).unwrap();
+        assert_eq!((hit.records, hit.foreign), (2, 0));
+        let mut shared = core.begin_lookup(&config, q, Vec3::Z).unwrap();
+        assert!(shared.add(&sealed_at(1.0, 2, 0)) && shared.add(&sealed_at(1.2, 5, 0)));
+        let hit = core.end_lookup(&shared, Work::default()).unwrap();
+        assert_eq!((hit.records, hit.foreign), (2, 1));
+        let s = core.stats;
+        assert_eq!((s.lookups, s.hits, s.shared_hits), (4, 2, 1));
+        // A second shared hit counts one more (not a doubling of the first).
+        core.end_lookup(&shared, Work::default());
+        core.end_lookup(&shared, Work::default());
+        assert_eq!(core.stats.shared_hits, 3);
+        // `end_lookup` counts its traversal too.
+        core.end_lookup(
+            &miss,
+            Work {
+                nodes: 1,
+                records: 1,
+            },
+        );
+        assert_eq!(core.stats.lookup_nodes, 9);
+    }
+
+    #[test]
+    fn collect_valid_keeps_the_valid_records_and_counts_every_one_it_is_shown() {
+        let config = CacheConfig::new(Vec3::ZERO, Vec3::splat(4.0), 0.5).unwrap();
+        let (q, mut out) = (Vec3::new(1.1, 1.0, 1.0), Vec::new());
+        // Valid, far (invalid), valid: three examined over two nodes, two kept in visit order.
+        let shown = [
+            sealed_at(1.0, 0, 0),
+            sealed_at(3.5, 0, 1),
+            sealed_at(1.2, 1, 0),
+        ];
+        let work = collect_valid(&config, q, Vec3::Z, &mut out, |point, f| {
+            assert_eq!(point, q);
+            shown.iter().for_each(f);
+            2
+        });
+        assert_eq!(
+            work,
+            Work {
+                nodes: 2,
+                records: 3
+            }
+        );
+        assert_eq!(out, vec![shown[0], shown[2]]);
+        // A query that cannot be answered visits nothing.
+        let work = collect_valid(&config, Vec3::NAN, Vec3::Z, &mut out, |_, _| {
+            panic!("an unanswerable query must not be visited")
+        });
+        assert_eq!(work, Work::default());
+        assert_eq!(out.len(), 2);
+    }
+
+    #[test]
+    fn a_ledger_names_its_cache_in_debug_output() {
+        let (a, b) = (Ledger::<()>::new(), Ledger::<()>::new());
+        let (a, b) = (format!("{a:?}"), format!("{b:?}"));
+        let number = |s: &str| -> u64 {
+            s.strip_prefix("Ledger(cache #")
+                .and_then(|r| r.strip_suffix(')'))
+                .unwrap_or_else(|| panic!("unexpected Debug output {s:?}"))
+                .parse()
+                .unwrap()
+        };
+        assert_ne!(number(&a), number(&b), "each cache has its own number");
+    }
 }

@@ -111,9 +111,11 @@ mod tests {
                 matches!(stored, Ok(Inserted::NotCached(_))),
                 outside.is_err(),
                 h.lookup(p, Vec3::Z).is_none(),
+                // The handle's own counters, before the frame sums them.
+                (h.stats().lookups, h.stats().inserts, h.stats().rejected),
             )
         });
-        assert_eq!(outcomes, [(true, true, true); 2]);
+        assert_eq!(outcomes, [(true, true, true, (1, 1, 1)); 2]);
         assert_eq!(report.workers.lookups, 2);
         assert_eq!(report.workers.inserts, 2);
         assert_eq!(report.workers.rejected, 2);

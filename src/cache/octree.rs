@@ -189,4 +189,39 @@ mod tests {
             }
         }
     }
+
+    /// The loose cell is exactly twice the cell (plus the slack), on every axis and on both sides:
+    /// a visit that is too wide costs work the tree-shape bounds cannot see (they prune with this
+    /// same test), and one that is too narrow misses records.
+    #[test]
+    fn a_loose_cell_is_twice_the_cell() {
+        let g = geometry(); // root half 8 at the origin: slack 8e-5
+        let cell = g.root.child(Octant(0)).child(Octant(7)); // centre (-2, -2, -2), half 2
+        assert_eq!((cell.center, cell.half), (Vec3::splat(-2.0), 2.0));
+        for axis in [Vec3::X, Vec3::Y, Vec3::Z] {
+            for side in [1.0, -1.0] {
+                let at = |d: f32| cell.center + axis * side * d;
+                assert!(
+                    g.loose_contains(&cell, at(4.0)),
+                    "{axis} {side}: the boundary"
+                );
+                assert!(
+                    g.loose_contains(&cell, at(4.00005)),
+                    "{axis} {side}: within the slack"
+                );
+                assert!(
+                    !g.loose_contains(&cell, at(4.001)),
+                    "{axis} {side}: past the slack"
+                );
+            }
+        }
+        // A small cell (half 0.25): twice is 0.5, not 2 + 0.25.
+        let small = Cell {
+            center: Vec3::ZERO,
+            half: 0.25,
+        };
+        assert!(g.loose_contains(&small, Vec3::new(0.5, 0.0, 0.0)));
+        assert!(!g.loose_contains(&small, Vec3::new(0.51, 0.0, 0.0)));
+        assert!(!g.loose_contains(&small, Vec3::new(1.0, 0.0, 0.0)));
+    }
 }

@@ -183,4 +183,22 @@ mod tests {
         }
         assert!(Scheme::CACHED.iter().all(|s| *s != Scheme::None));
     }
+
+    #[test]
+    fn descriptions_concurrency_and_display() {
+        for (i, a) in Scheme::ALL.iter().enumerate() {
+            assert!(a.description().len() > 20, "{a}: {:?}", a.description());
+            assert_eq!(a.to_string(), a.name());
+            for b in &Scheme::ALL[i + 1..] {
+                assert_ne!(a.description(), b.description());
+            }
+        }
+        // TRA's handle holds the whole cache: the only scheme whose threads do not share it.
+        let concurrent: Vec<Scheme> = Scheme::ALL
+            .into_iter()
+            .filter(|s| s.is_concurrent())
+            .collect();
+        assert_eq!(concurrent.len(), Scheme::ALL.len() - 1);
+        assert!(!Scheme::Tra.is_concurrent());
+    }
 }

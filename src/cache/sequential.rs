@@ -264,3 +264,60 @@ impl CacheHandle for SeqHandle<'_> {
         &self.core.stats
     }
 }
+
+#[cfg(all(test, not(checker)))]
+mod tests {
+    use super::*;
+    use crate::ic::RecordId;
+
+    fn config() -> CacheConfig {
+        // Root: centre (4, 4, 4), half 4.04; at a = 0.5 a record of radius 2 (influence 1) goes to
+        // depth 2 (half 1.01).
+        CacheConfig::new(Vec3::ZERO, Vec3::splat(8.0), 0.5).unwrap()
+    }
+
+    fn record(p: Vec3, seq: u64) -> Record {
+        Record::new(p, Vec3::Z, Vec3::ONE, 2.0).sealed(RecordId::new(WorkerId::new(0), 0, seq))
+    }
+
+    /// The plain octree, counted by hand: nodes made only where a path is missing, shared where
+    /// it exists; a query visits the root and the loose cells that hold it, and sees the records
+    /// stored there.
+    #[test]
+    fn the_octree_makes_shares_and_visits_nodes() {
+        let mut tree = Octree::new(config());
+        assert!(tree.is_empty());
+        assert_eq!((tree.len(), tree.node_count()), (0, 1));
+        assert_eq!(config().depth_of(&record(Vec3::ONE, 0)), 2);
+
+        // Depth 2: root -> child -> grandchild, two new nodes.
+        assert_eq!(tree.insert_admitted(record(Vec3::splat(1.0), 0)), 2);
+        assert!(!tree.is_empty());
+        assert_eq!((tree.len(), tree.node_count()), (1, 3));
+        // The same grandchild's cell: no new node.
+        tree.insert(record(Vec3::splat(1.5), 1)).unwrap();
+        assert_eq!((tree.len(), tree.node_count()), (2, 3));
+        // The same child, another grandchild: one new node.
+        tree.insert(record(Vec3::new(3.0, 1.0, 1.0), 2)).unwrap();
+        assert_eq!((tree.len(), tree.node_count()), (3, 4));
+        // Another child of the root: two new nodes.
+        tree.insert(record(Vec3::splat(7.0), 3)).unwrap();
+        assert_eq!((tree.len(), tree.node_count()), (4, 6));
+        // Refused input changes nothing.
+        assert!(tree.insert(record(Vec3::splat(9.0), 4)).is_err());
+        assert_eq!((tree.len(), tree.node_count()), (4, 6));
+
+        // A query at (1.2, 1.2, 1.2) lies in the loose cells of the root, of the (-,-,-) child
+        // (centre 1.98 on each axis, half 2.02) and of both its grandchildren (centres (0.97,
+        // 0.97, 0.97) and (2.99, 0.97, 0.97), half 1.01), not in that of the (+,+,+) child
+        // (centre 6.02, 4.82 away on each axis, more than 4.04): 4 nodes, and the 3 records
+        // stored in them.
+        let mut seen = Vec::new();
+        let nodes = tree.visit(Vec3::splat(1.2), &mut |r| seen.push(r.id().seq()));
+        seen.sort_unstable();
+        assert_eq!((nodes, seen), (4, vec![0, 1, 2]));
+        let mut ids: Vec<u64> = tree.records().map(|r| r.id().seq()).collect();
+        ids.sort_unstable();
+        assert_eq!(ids, [0, 1, 2, 3]);
+    }
+}
