@@ -4,7 +4,6 @@
 //! `valgrind --tool=cachegrind` is what the lookups alone cost (`verify/lookup_lines.sh`).
 
 #[path = "../benches/common/mod.rs"]
-#[allow(dead_code)]
 mod common;
 
 use common::*;
