@@ -29,7 +29,7 @@
 use super::frame::Ledger;
 use super::{
     collect_valid, CacheConfig, CacheHandle, CacheStats, FrameReport, HandleCore, Inserted,
-    IrradianceCache, Octree, Work, WorkerStats,
+    IrradianceCache, Octree, WorkerStats,
 };
 use crate::ic::{InsertError, Interpolated, Record, WorkerId};
 use glam::Vec3;
@@ -118,16 +118,15 @@ impl CacheHandle for LwHandle<'_> {
         let mut acc = self
             .core
             .begin_lookup(self.global.config(), point, normal)?;
-        let mut records = 0;
+        let pre = *acc.prefilter();
         let mut add = |r: &Record| {
-            records += 1;
             acc.add(r);
         };
-        let mut nodes = self.global.visit(point, &mut add);
+        let mut work = self.global.walk(point, |k| pre.admits(k), &mut add);
         if !self.core.local.is_empty() {
-            nodes += self.core.local.visit(point, &mut add);
+            work += self.core.local.walk(point, |k| pre.admits(k), &mut add);
         }
-        self.core.end_lookup(&acc, Work { nodes, records })
+        self.core.end_lookup(&acc, work)
     }
 
     fn insert(&mut self, record: Record) -> Result<Inserted, InsertError> {
@@ -139,13 +138,12 @@ impl CacheHandle for LwHandle<'_> {
     fn valid_records(&mut self, point: Vec3, normal: Vec3, out: &mut Vec<Record>) {
         let (global, local) = (self.global, &self.core.local);
         // As a lookup does: the local octree only once it holds a record.
-        let work = collect_valid(global.config(), point, normal, out, |p, f| {
-            let global_nodes = global.visit(p, &mut |r| f(r));
-            if local.is_empty() {
-                global_nodes
-            } else {
-                global_nodes + local.visit(p, &mut |r| f(r))
+        let work = collect_valid(global.config(), point, normal, out, |pre, f| {
+            let mut work = global.walk(pre.point(), |k| pre.admits(k), &mut |r| f(r));
+            if !local.is_empty() {
+                work += local.walk(pre.point(), |k| pre.admits(k), &mut |r| f(r));
             }
+            work
         });
         self.core.traversed(work);
     }

@@ -9,7 +9,7 @@
 use super::frame::Ledger;
 use super::{
     collect_valid, CacheConfig, CacheHandle, CacheStats, FrameReport, HandleCore, Inserted,
-    IrradianceCache, Octree, Work, WorkerStats,
+    IrradianceCache, Octree, WorkerStats,
 };
 use crate::ic::{InsertError, Interpolated, Record, WorkerId};
 use crate::sync::{
@@ -208,19 +208,18 @@ impl<F: LockFlavour> CacheHandle for LckHandle<'_, F> {
     fn lookup(&mut self, point: Vec3, normal: Vec3) -> Option<Interpolated> {
         let mut acc = self.core.begin_lookup(&self.cache.config, point, normal)?;
         let tree = &self.cache.tree;
-        let mut records = 0;
-        let nodes = {
+        let pre = *acc.prefilter();
+        let work = {
             let guard = acquire(
                 &mut self.core.stats.lock_wait,
                 || tree.try_read(),
                 || tree.read(),
             );
-            guard.visit(point, &mut |r| {
-                records += 1;
+            guard.walk(point, |k| pre.admits(k), &mut |r| {
                 acc.add(r);
             })
         };
-        self.core.end_lookup(&acc, Work { nodes, records })
+        self.core.end_lookup(&acc, work)
     }
 
     fn insert(&mut self, record: Record) -> Result<Inserted, InsertError> {
@@ -240,8 +239,8 @@ impl<F: LockFlavour> CacheHandle for LckHandle<'_, F> {
     fn valid_records(&mut self, point: Vec3, normal: Vec3, out: &mut Vec<Record>) {
         let work = {
             let guard = self.cache.tree.read();
-            collect_valid(&self.cache.config, point, normal, out, |p, f| {
-                guard.visit(p, &mut |r| f(r))
+            collect_valid(&self.cache.config, point, normal, out, |pre, f| {
+                guard.walk(pre.point(), |k| pre.admits(k), &mut |r| f(r))
             })
         };
         self.core.traversed(work);

@@ -427,26 +427,32 @@ pub(crate) struct Work {
     pub records: u32,
 }
 
-/// Collects the records a query would use, through any cache's visitor; returns the traversal's
-/// work (none for a query that cannot be answered).
+impl std::ops::AddAssign for Work {
+    fn add_assign(&mut self, other: Work) {
+        self.nodes += other.nodes;
+        self.records += other.records;
+    }
+}
+
+/// Collects the records a query would use, through any cache's walk (given the query's prefilter
+/// and a visitor for the records it admits); returns the walk's work (none for a query that
+/// cannot be answered).
 pub(crate) fn collect_valid(
     config: &CacheConfig,
     point: Vec3,
     normal: Vec3,
     out: &mut Vec<Record>,
-    visit: impl FnOnce(Vec3, &mut dyn FnMut(&Record)) -> u32,
+    walk: impl FnOnce(&ic::Prefilter, &mut dyn FnMut(&Record)) -> Work,
 ) -> Work {
     if !ic::is_valid_query(point, normal) {
         return Work::default();
     }
-    let mut records = 0;
-    let nodes = visit(point, &mut |r: &Record| {
-        records += 1;
+    let pre = ic::Prefilter::new(point, normal, config.accuracy());
+    walk(&pre, &mut |r: &Record| {
         if ic::valid_weight(r, point, normal, config.accuracy()).is_some() {
             out.push(*r);
         }
-    });
-    Work { nodes, records }
+    })
 }
 
 #[cfg(all(test, not(checker)))]
@@ -671,10 +677,13 @@ mod tests {
             sealed_at(3.5, 0, 1),
             sealed_at(1.2, 1, 0),
         ];
-        let work = collect_valid(&config, q, Vec3::Z, &mut out, |point, f| {
-            assert_eq!(point, q);
+        let work = collect_valid(&config, q, Vec3::Z, &mut out, |pre, f| {
+            assert_eq!(pre.point(), q);
             shown.iter().for_each(f);
-            2
+            Work {
+                nodes: 2,
+                records: 3,
+            }
         });
         assert_eq!(
             work,

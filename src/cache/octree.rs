@@ -10,7 +10,7 @@
 //! can be valid for it. Records too large for the root cell stay in the root, which every query
 //! visits.
 
-use glam::Vec3;
+use glam::{Vec3, Vec3A};
 
 /// The deepest level a record is placed at. Deeper cells would be smaller than the numerical
 /// slack the pruning test allows for, and gain nothing.
@@ -43,7 +43,69 @@ impl Octant {
     pub fn index(self) -> usize {
         usize::from(self.0)
     }
+
+    /// The octants whose bits are set in `mask`, lowest first (the order of [`Octant::ALL`]).
+    #[inline]
+    pub fn in_mask(mask: u8) -> impl Iterator<Item = Octant> {
+        let mut left = mask;
+        std::iter::from_fn(move || {
+            (left != 0).then(|| {
+                let o = left.trailing_zeros() as u8;
+                left &= left - 1;
+                Octant(o)
+            })
+        })
+    }
+
+    /// This octant's bit in a mask.
+    #[inline]
+    pub fn bit(self) -> u8 {
+        1 << self.0
+    }
 }
+
+/// `HOLDING[below | above << 3]`: the octants whose child cells hold a point, given per axis
+/// whether the child below (bits 0–2 of the index) and the child above (bits 3–5) hold it on
+/// that axis. An octant is in when, on each of the three axes, its side holds the point.
+const HOLDING: [u8; 64] = {
+    let mut table = [0u8; 64];
+    let mut index = 0;
+    while index < 64 {
+        let mut mask = 0u8;
+        let mut octant = 0;
+        while octant < 8 {
+            let mut inside = true;
+            let mut axis = 0;
+            while axis < 3 {
+                let above = octant & (1 << axis) != 0;
+                let side = if above { 3 + axis } else { axis };
+                inside &= index & (1 << side) != 0;
+                axis += 1;
+            }
+            if inside {
+                mask |= 1 << octant;
+            }
+            octant += 1;
+        }
+        table[index] = mask;
+        index += 1;
+    }
+    table
+};
+
+/// Per octant, the direction of its child's centre from the parent's (each component ±1).
+const CHILD_SIGNS: [Vec3; 8] = {
+    let mut signs = [Vec3::ZERO; 8];
+    let mut o = 0;
+    while o < 8 {
+        let x = if o & 1 != 0 { 1.0 } else { -1.0 };
+        let y = if o & 2 != 0 { 1.0 } else { -1.0 };
+        let z = if o & 4 != 0 { 1.0 } else { -1.0 };
+        signs[o] = Vec3::new(x, y, z);
+        o += 1;
+    }
+    signs
+};
 
 /// A cubic cell of the octree.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -68,9 +130,9 @@ impl Cell {
     #[inline]
     pub fn child(&self, o: Octant) -> Cell {
         let q = self.half * 0.5;
-        let sign = |bit: u8| if o.0 & bit != 0 { q } else { -q };
+        // `±1 * q` is exactly `±q`.
         Cell {
-            center: self.center + Vec3::new(sign(1), sign(2), sign(4)),
+            center: self.center + CHILD_SIGNS[o.index()] * q,
             half: q,
         }
     }
@@ -113,6 +175,22 @@ impl Geometry {
             depth += 1;
         }
         depth
+    }
+
+    /// The children of `cell` a query at `p` must visit, as a mask with bit `o` set for octant
+    /// `o`: exactly the octants whose child cell `loose_contains` accepts, decided axis by axis
+    /// with the same `f32` operations, four lanes at a time (`c + (-q)` is `c - q`, and a maximum
+    /// over the axes is below a bound when each axis is), without building the eight cells. A
+    /// walk then loads only the child pointers it will follow.
+    #[inline]
+    pub fn children_holding(&self, cell: &Cell, p: Vec3) -> u8 {
+        let q = Vec3A::splat(cell.half * 0.5);
+        let bound = Vec3A::splat(2.0 * (cell.half * 0.5) + self.slack);
+        let (p, c) = (Vec3A::from(p), Vec3A::from(cell.center));
+        // Bit `i` of `below` (`above`): the child on the - (+) side of axis `i` holds `p`.
+        let below = (p - (c - q)).abs().cmple(bound).bitmask();
+        let above = (p - (c + q)).abs().cmple(bound).bitmask();
+        HOLDING[(below | above << 3) as usize]
     }
 
     /// True when a query at `p` must visit the node of `cell` (a non-root node).
@@ -187,6 +265,49 @@ mod tests {
             for cell in &cells[1..] {
                 assert!(g.loose_contains(cell, q), "{q} escapes {cell:?}");
             }
+        }
+    }
+
+    /// The mask agrees with building each child and testing its loose cell, at random cells and
+    /// points (many of them near a boundary, where rounding could tell two computations apart),
+    /// and lists octants lowest first.
+    #[test]
+    fn children_holding_is_the_loose_test_of_each_child() {
+        let g = geometry();
+        let mut rng = crate::rng::Rng::new(7);
+        let mut seen = [0usize; 9];
+        for _ in 0..200_000 {
+            let mut cell = g.root;
+            for _ in 0..rng.below(10) {
+                cell = cell.child(Octant::ALL[rng.below(8) as usize]);
+            }
+            // Points across the parent's loose cell, a third of them snapped to a child boundary.
+            let mut p = cell.center
+                + Vec3::new(
+                    rng.range(-2.0, 2.0),
+                    rng.range(-2.0, 2.0),
+                    rng.range(-2.0, 2.0),
+                ) * cell.half;
+            if rng.below(3) == 0 {
+                let q = cell.half * 0.5;
+                p.x = cell.center.x + [-3.0, -1.0, 1.0, 3.0][rng.below(4) as usize] * q;
+            }
+            let mask = g.children_holding(&cell, p);
+            for o in Octant::ALL {
+                assert_eq!(
+                    mask & o.bit() != 0,
+                    g.loose_contains(&cell.child(o), p),
+                    "{cell:?} {p} octant {o:?}"
+                );
+            }
+            seen[mask.count_ones() as usize] += 1;
+            let listed: Vec<usize> = Octant::in_mask(mask).map(Octant::index).collect();
+            let expected: Vec<usize> = (0..8).filter(|&i| mask & (1 << i) != 0).collect();
+            assert_eq!(listed, expected);
+        }
+        // Every count of children that the geometry allows (0, 1, 2, 4, 8) was met.
+        for k in [0, 1, 2, 4, 8] {
+            assert!(seen[k] > 0, "{seen:?}");
         }
     }
 

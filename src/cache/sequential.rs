@@ -16,16 +16,21 @@ use super::{
     collect_valid, CacheConfig, CacheHandle, CacheStats, FrameReport, HandleCore, Inserted,
     IrradianceCache, Work, WorkerStats,
 };
-use crate::ic::{InsertError, Interpolated, Record, WorkerId};
+use crate::ic::{InsertError, Interpolated, Key, Record, WorkerId};
 use crate::sync::{unpoison, Mutex, MutexGuard};
 use glam::Vec3;
 
 /// Index of a node in the arena. The root is node 0, so 0 in a child slot means "no child".
 type NodeIndex = u32;
 
+/// A node: its children, and its records with their keys beside them (`keys[k]` is the key of
+/// `records[k]`), so a walk reads a record only when its key passes the query's prefilter.
 #[derive(Clone, Debug, Default)]
 struct Node {
     children: [NodeIndex; 8],
+    /// Bit `o` set when `children[o]` is a node.
+    occupied: u8,
+    keys: Vec<Key>,
     records: Vec<Record>,
 }
 
@@ -89,41 +94,60 @@ impl Octree {
                 let index = NodeIndex::try_from(fresh).expect("octree exceeds 2^32 nodes");
                 self.nodes.push(Node::default());
                 self.nodes[node].children[octant.index()] = index;
+                self.nodes[node].occupied |= octant.bit();
                 fresh
             };
         }
-        self.nodes[node].records.push(record);
+        let node = &mut self.nodes[node];
+        node.keys.push(Key::of(&record, self.config.accuracy()));
+        node.records.push(record);
         self.len += 1;
         depth
     }
 
     /// Calls `f` with every record stored in a node that a query at `point` visits (a superset of
     /// the valid ones); returns the number of nodes visited.
-    #[inline]
     pub fn visit(&self, point: Vec3, f: &mut impl FnMut(&Record)) -> u32 {
-        let mut visited = 0;
-        self.visit_node(0, self.config.root(), point, f, &mut visited);
-        visited
+        self.walk(point, |_| true, f).nodes
     }
 
-    fn visit_node(
+    /// Visits the nodes a query at `point` must visit, depth first, children in octant order, and
+    /// calls `f` with each record there whose key `admit` passes, in list order; returns the nodes
+    /// visited and the keys examined.
+    #[inline]
+    pub(crate) fn walk(
+        &self,
+        point: Vec3,
+        admit: impl Fn(&Key) -> bool,
+        f: &mut impl FnMut(&Record),
+    ) -> Work {
+        let mut work = Work::default();
+        self.walk_node(0, self.config.root(), point, &admit, f, &mut work);
+        work
+    }
+
+    fn walk_node(
         &self,
         index: usize,
         cell: Cell,
         point: Vec3,
+        admit: &impl Fn(&Key) -> bool,
         f: &mut impl FnMut(&Record),
-        visited: &mut u32,
+        work: &mut Work,
     ) {
-        *visited += 1;
         let node = &self.nodes[index];
-        node.records.iter().for_each(&mut *f);
-        for octant in Octant::ALL {
-            let child = node.children[octant.index()];
-            if child != 0 {
-                let child_cell = cell.child(octant);
-                if self.config.geometry().loose_contains(&child_cell, point) {
-                    self.visit_node(child as usize, child_cell, point, f, visited);
-                }
+        work.nodes += 1;
+        work.records += node.keys.len() as u32;
+        for (key, record) in node.keys.iter().zip(&node.records) {
+            if admit(key) {
+                f(record);
+            }
+        }
+        if node.occupied != 0 {
+            let mask = node.occupied & self.config.geometry().children_holding(&cell, point);
+            for octant in Octant::in_mask(mask) {
+                let child = node.children[octant.index()] as usize;
+                self.walk_node(child, cell.child(octant), point, admit, f, work);
             }
         }
     }
@@ -238,12 +262,11 @@ impl CacheHandle for SeqHandle<'_> {
     #[inline]
     fn lookup(&mut self, point: Vec3, normal: Vec3) -> Option<Interpolated> {
         let mut acc = self.core.begin_lookup(self.tree.config(), point, normal)?;
-        let mut records = 0;
-        let nodes = self.tree.visit(point, &mut |r| {
-            records += 1;
+        let pre = *acc.prefilter();
+        let work = self.tree.walk(point, |k| pre.admits(k), &mut |r| {
             acc.add(r);
         });
-        self.core.end_lookup(&acc, Work { nodes, records })
+        self.core.end_lookup(&acc, work)
     }
 
     fn insert(&mut self, record: Record) -> Result<Inserted, InsertError> {
@@ -254,8 +277,8 @@ impl CacheHandle for SeqHandle<'_> {
 
     fn valid_records(&mut self, point: Vec3, normal: Vec3, out: &mut Vec<Record>) {
         let tree = &*self.tree;
-        let work = collect_valid(tree.config(), point, normal, out, |p, f| {
-            tree.visit(p, &mut |r| f(r))
+        let work = collect_valid(tree.config(), point, normal, out, |pre, f| {
+            tree.walk(pre.point(), |k| pre.admits(k), &mut |r| f(r))
         });
         self.core.traversed(work);
     }

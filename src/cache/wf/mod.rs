@@ -58,7 +58,7 @@ use super::{
     collect_valid, CacheConfig, CacheHandle, CacheStats, FrameReport, HandleCore, Inserted,
     IrradianceCache, Work, WorkerStats,
 };
-use crate::ic::{InsertError, Interpolated, Record, WorkerId};
+use crate::ic::{InsertError, Interpolated, Key, Record, WorkerId};
 use crate::sync::{fence, AtomicPtr, Ordering, Tracked};
 use glam::Vec3;
 #[cfg(not(feature = "loom"))]
@@ -89,9 +89,14 @@ pub enum CasFailure {
 /// `RecordList`'s marker does for its segments). Sharing a node is sound because a child is only
 /// dereferenced after an Acquire load saw its Release publication, is never changed or freed
 /// while the tree is shared (only `Drop`, with `&mut`, frees it), and is read only through `&`.
+#[repr(C, align(64))]
 struct Node<O: Orderings> {
-    /// Null, or a child published by a Release compare-and-swap and never changed again.
+    /// Null, or a child published by a Release compare-and-swap and never changed again. The
+    /// node's first cache line (64 bytes, the node is aligned to one).
     children: [AtomicPtr<Node<O>>; 8],
+    /// The list: its head and first segments in the node's second cache line, its other segment
+    /// pointers (used only by lists of more than 60 records) beyond. A walk reads two lines of a
+    /// node: the second always, the first when a child's loose cell holds the query.
     records: RecordList<O>,
     /// The node owns its children as boxes (see the type's documentation).
     _owns: PhantomData<[Box<Node<O>>; 8]>,
@@ -224,7 +229,7 @@ impl<O: Orderings> WaitFree<O> {
                 }
             };
         }
-        match node.records.push(record) {
+        match node.records.push_keyed(self.key(&record), record) {
             Ok(_) => (Placed::Stored, steps, lost),
             Err(list::ListFull) => (Placed::Full, steps, lost),
         }
@@ -245,7 +250,7 @@ impl<O: Orderings> WaitFree<O> {
         depth: u32,
         record: Record,
     ) -> Option<&'a Node<O>> {
-        let top = build_path::<O>(cell, level, depth, record);
+        let top = build_path::<O>(cell, level, depth, self.key(&record), record);
         let top = Box::into_raw(top);
         match parent.children[octant.index()].compare_exchange(
             ptr::null_mut(),
@@ -269,35 +274,42 @@ impl<O: Orderings> WaitFree<O> {
         }
     }
 
-    /// Calls `f` with every published record in a node a query at `point` visits; returns the
-    /// number of nodes visited.
+    /// The key a record is stored with in this cache.
     #[inline]
-    fn visit(&self, point: Vec3, f: &mut impl FnMut(&Record)) -> u32 {
+    fn key(&self, record: &Record) -> Key {
+        Key::of(record, self.config.accuracy())
+    }
+
+    /// Visits the nodes a query at `point` must visit, depth first, children in octant order, and
+    /// calls `f` with each published record there whose key `admit` passes; returns the nodes
+    /// visited and the keys examined. Only the child pointers of the octants whose loose cells
+    /// hold the point are loaded.
+    #[inline]
+    fn walk(&self, point: Vec3, admit: impl Fn(&Key) -> bool, f: &mut impl FnMut(&Record)) -> Work {
         if O::READ_FENCE {
             // SeqCst fence: the read-path barrier of the ReadFence policy (the paper's avoided cost).
             fence(Ordering::SeqCst);
         }
-        let mut visited = 0;
-        self.visit_node(&self.root, self.config.root(), point, f, &mut visited);
-        visited
+        let mut work = Work::default();
+        self.walk_node(&self.root, self.config.root(), point, &admit, f, &mut work);
+        work
     }
 
-    fn visit_node(
+    fn walk_node(
         &self,
         node: &Node<O>,
         cell: Cell,
         point: Vec3,
+        admit: &impl Fn(&Key) -> bool,
         f: &mut impl FnMut(&Record),
-        visited: &mut u32,
+        work: &mut Work,
     ) {
-        *visited += 1;
-        node.records.for_each(f);
-        for octant in Octant::ALL {
+        work.nodes += 1;
+        work.records += node.records.scan(admit, f);
+        let mask = self.config.geometry().children_holding(&cell, point);
+        for octant in Octant::in_mask(mask) {
             if let Some(child) = node.child(octant) {
-                let child_cell = cell.child(octant);
-                if self.config.geometry().loose_contains(&child_cell, point) {
-                    self.visit_node(child, child_cell, point, f, visited);
-                }
+                self.walk_node(child, cell.child(octant), point, admit, f, work);
             }
         }
     }
@@ -320,7 +332,13 @@ impl<O: Orderings> WaitFree<O> {
 }
 
 /// A private chain of nodes from `cell` at `level` down to `depth`, holding `record` at the bottom.
-fn build_path<O: Orderings>(cell: Cell, level: u32, depth: u32, record: Record) -> Box<Node<O>> {
+fn build_path<O: Orderings>(
+    cell: Cell,
+    level: u32,
+    depth: u32,
+    key: Key,
+    record: Record,
+) -> Box<Node<O>> {
     // The octants of the path below `cell`, on the stack (no allocation on the insert path).
     let mut octants = [Octant::ALL[0]; MAX_DEPTH as usize];
     let steps = (depth - level) as usize;
@@ -331,7 +349,7 @@ fn build_path<O: Orderings>(cell: Cell, level: u32, depth: u32, record: Record) 
     }
     let mut node = Box::new(Node::<O>::new());
     // A fresh list in a fresh node: the push cannot find it full (the first segment has room).
-    let pushed = node.records.push(record);
+    let pushed = node.records.push_keyed(key, record);
     debug_assert!(pushed.is_ok());
     for &octant in octants[..steps].iter().rev() {
         let parent = Box::new(Node::<O>::new());
@@ -403,12 +421,11 @@ impl<O: Orderings> CacheHandle for WfHandle<'_, O> {
     #[inline]
     fn lookup(&mut self, point: Vec3, normal: Vec3) -> Option<Interpolated> {
         let mut acc = self.core.begin_lookup(&self.cache.config, point, normal)?;
-        let mut records = 0;
-        let nodes = self.cache.visit(point, &mut |r| {
-            records += 1;
+        let pre = *acc.prefilter();
+        let work = self.cache.walk(point, |k| pre.admits(k), &mut |r| {
             acc.add(r);
         });
-        self.core.end_lookup(&acc, Work { nodes, records })
+        self.core.end_lookup(&acc, work)
     }
 
     fn insert(&mut self, record: Record) -> Result<Inserted, InsertError> {
@@ -429,8 +446,8 @@ impl<O: Orderings> CacheHandle for WfHandle<'_, O> {
 
     fn valid_records(&mut self, point: Vec3, normal: Vec3, out: &mut Vec<Record>) {
         let cache = self.cache;
-        let work = collect_valid(&cache.config, point, normal, out, |p, f| {
-            cache.visit(p, &mut |r| f(r))
+        let work = collect_valid(&cache.config, point, normal, out, |pre, f| {
+            cache.walk(pre.point(), |k| pre.admits(k), &mut |r| f(r))
         });
         self.core.traversed(work);
     }
@@ -443,17 +460,86 @@ impl<O: Orderings> CacheHandle for WfHandle<'_, O> {
 #[cfg(all(test, not(checker)))]
 mod tests {
     use super::*;
+    use crate::cache::CacheConfig;
     use std::mem::size_of;
 
     /// The leak tracker ([`crate::sync::Tracked`]) costs nothing outside loom: a node is its eight
-    /// child pointers and its list, 568 bytes on 64-bit targets.
+    /// child pointers and its list, 568 bytes on 64-bit targets rounded up to 576 by the
+    /// alignment to a cache line; the children fill the first line and the list's head and first
+    /// segment pointer open the second.
     #[test]
-    fn a_node_is_its_children_and_its_list() {
+    fn a_node_is_its_children_and_its_list_on_cache_lines() {
+        use std::mem::{align_of, offset_of};
         assert_eq!(
             size_of::<Node<Minimal>>(),
-            size_of::<[AtomicPtr<Node<Minimal>>; 8]>() + size_of::<RecordList<Minimal>>()
+            (size_of::<[AtomicPtr<Node<Minimal>>; 8]>() + size_of::<RecordList<Minimal>>())
+                .next_multiple_of(64)
         );
+        assert_eq!(align_of::<Node<Minimal>>(), 64);
         #[cfg(target_pointer_width = "64")]
-        assert_eq!(size_of::<Node<Minimal>>(), 568);
+        {
+            assert_eq!(size_of::<Node<Minimal>>(), 576);
+            assert_eq!(offset_of!(Node<Minimal>, children), 0);
+            assert_eq!(offset_of!(Node<Minimal>, records), 64);
+            assert_eq!(RecordList::<Minimal>::HOT_FIELDS_END, 16);
+        }
+    }
+
+    /// WF's walk with the prefilter gives, query by query, the bit-identical interpolation that
+    /// the plain octree's walk gives without it, over the same nodes and keys: the prefilter and
+    /// the geometric choice of children change what is read, not what is found. Most examined
+    /// records never reach the exact test.
+    #[test]
+    fn the_prefiltered_walk_finds_what_the_unfiltered_octree_finds() {
+        use crate::cache::Octree;
+        use crate::ic::{Accumulator, RecordId};
+        let config = CacheConfig::new(Vec3::ZERO, Vec3::splat(4.0), 0.3).unwrap();
+        let mut rng = crate::rng::Rng::new(11);
+        let cache = WaitFree::<Minimal>::adopt(config);
+        let mut tree = Octree::new(config);
+        let vec3 = |rng: &mut crate::rng::Rng, lo: f32, hi: f32| {
+            Vec3::new(rng.range(lo, hi), rng.range(lo, hi), rng.range(lo, hi))
+        };
+        for seq in 0..3000 {
+            let normal = [Vec3::Z, Vec3::X, -Vec3::Y][seq % 3];
+            let r = Record::new(
+                vec3(&mut rng, 0.0, 4.0),
+                normal,
+                vec3(&mut rng, 0.0, 2.0),
+                rng.range(0.02, 1.0),
+            )
+            .with_gradients(
+                [vec3(&mut rng, -0.1, 0.1); 3],
+                [vec3(&mut rng, -0.1, 0.1); 3],
+            )
+            .sealed(RecordId::new(WorkerId::new(0), 0, seq as u64));
+            let (placed, _, _) = cache.place(r);
+            assert!(matches!(placed, Placed::Stored));
+            tree.insert(r).unwrap();
+        }
+        let (mut hits, mut examined, mut tested) = (0, 0, 0);
+        for q in 0..3000 {
+            let point = vec3(&mut rng, 0.0, 4.0);
+            let normal = [Vec3::Z, Vec3::X, -Vec3::Y][q % 3];
+            let mut plain = Accumulator::new(point, normal, 0.3, None);
+            let plain_work = tree.walk(point, |_| true, &mut |r| {
+                plain.add(r);
+            });
+            let mut filtered = Accumulator::new(point, normal, 0.3, None);
+            let pre = *filtered.prefilter();
+            let work = cache.walk(point, |k| pre.admits(k), &mut |r| {
+                tested += 1;
+                filtered.add(r);
+            });
+            assert_eq!(work, plain_work, "query {q}");
+            assert_eq!(filtered.finish(), plain.finish(), "query {q}");
+            hits += usize::from(plain.finish().is_some());
+            examined += work.records;
+        }
+        assert!(hits > 300 && hits < 2700, "{hits} hits");
+        assert!(
+            tested * 3 < examined,
+            "{tested} of {examined} examined reached the exact test"
+        );
     }
 }
