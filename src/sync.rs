@@ -21,7 +21,7 @@ compile_error!(
 #[cfg(feature = "loom")]
 mod imp {
     pub use loom::cell::UnsafeCell;
-    pub use loom::sync::atomic::{fence, AtomicBool, AtomicPtr, AtomicUsize, Ordering};
+    pub use loom::sync::atomic::{fence, AtomicBool, AtomicPtr, AtomicU8, AtomicUsize, Ordering};
     pub use loom::sync::{Arc, Mutex, MutexGuard, RwLock, RwLockReadGuard, RwLockWriteGuard};
     pub use loom::thread;
 }
@@ -29,7 +29,7 @@ mod imp {
 #[cfg(all(feature = "shuttle", not(feature = "loom")))]
 mod imp {
     pub use super::cell::UnsafeCell;
-    pub use shuttle::sync::atomic::{fence, AtomicBool, AtomicPtr, AtomicUsize, Ordering};
+    pub use shuttle::sync::atomic::{fence, AtomicBool, AtomicPtr, AtomicU8, AtomicUsize, Ordering};
     pub use shuttle::sync::{Arc, Mutex, MutexGuard, RwLock, RwLockReadGuard, RwLockWriteGuard};
     pub use shuttle::thread;
 }
@@ -37,7 +37,7 @@ mod imp {
 #[cfg(not(any(feature = "loom", feature = "shuttle")))]
 mod imp {
     pub use super::cell::UnsafeCell;
-    pub use std::sync::atomic::{fence, AtomicBool, AtomicPtr, AtomicUsize, Ordering};
+    pub use std::sync::atomic::{fence, AtomicBool, AtomicPtr, AtomicU8, AtomicUsize, Ordering};
     pub use std::sync::{Arc, Mutex, MutexGuard, RwLock, RwLockReadGuard, RwLockWriteGuard};
     pub use std::thread;
 }

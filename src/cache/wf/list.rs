@@ -8,12 +8,17 @@
 //!    skip `k` instead of stopping there.
 //! 2. **No fixed capacity.** Slots live in segments of geometrically growing size (`B, 2B, 4B, ...`),
 //!    allocated on first use and installed with one compare-and-swap; a thread that loses the race
-//!    frees its own segment and uses the winner's. With `B = 4` and 62 segments every `usize` index
-//!    has a slot, so the list is bounded by memory, not by a constant. (`B = 4` keeps the first
-//!    segment, 4 × (32 + 128) bytes, inside glibc's per-thread cache of small blocks (at most
-//!    1 032 bytes); with `B = 8` a 1 088-byte segment missed it and a WF insert creating a node
-//!    cost 3.2 times more: 500 ns against 154 ns in `insert/wf`.) Under `loom` the segments
-//!    are shrunk to `2, 4, 8` slots so three inserts reach a segment boundary; the logic is the same.
+//!    frees its own segment and uses the winner's. With `B = 4` and 50 segments the list has
+//!    `4 (2^50 - 1)` slots, about 4.5 * 10^15: at 160 bytes a slot, more than any 64-bit address
+//!    space holds (2^57 bytes with 5-level paging), so the list is bounded by memory, not by a
+//!    constant. The list itself holds only the head and the first segment's pointer; the other
+//!    segments' pointers live in a directory at the end of the first segment, so a node stays
+//!    small (two cache lines) however long its list may grow. (`B = 4` and 49 directory entries
+//!    keep the first segment, 4 × (32 + 128) + 49 × 8 = 1 032 bytes, inside glibc's per-thread
+//!    cache of small blocks (at most 1 032 bytes); with `B = 8` a larger first segment missed it
+//!    and a WF insert creating a node cost 3.2 times more: 500 ns against 154 ns in `insert/wf`.)
+//!    Under `loom` the segments are shrunk to `2, 4, 8` slots so three inserts reach a segment
+//!    boundary; the logic is the same.
 //!
 //! 3. **Keys apart from records.** A segment is one allocation holding its slots' *hot* halves
 //!    (the ready flag and the record's [`Key`], 32 bytes, two to a cache line) followed by their
@@ -41,9 +46,9 @@ const BASE_SHIFT: u32 = 2;
 #[cfg(feature = "loom")]
 const BASE_SHIFT: u32 = 1;
 
-/// Number of segments: enough for every `usize` index.
+/// Number of segments: more slots than any address space can hold (see the module documentation).
 #[cfg(not(feature = "loom"))]
-pub(crate) const SEGMENTS: usize = (usize::BITS - BASE_SHIFT) as usize;
+pub(crate) const SEGMENTS: usize = 50;
 /// Number of segments under loom (2 + 4 + 8 = 14 slots), to keep the model's state small.
 #[cfg(feature = "loom")]
 pub(crate) const SEGMENTS: usize = 3;
@@ -93,11 +98,12 @@ impl Hot {
     }
 }
 
-/// What a segment holds, for the list's auto traits: hot halves and cold halves, owned.
-type Segment = (Box<[Hot]>, Box<[Cold]>);
+/// What a segment holds, for the list's auto traits: hot halves, cold halves and (the first
+/// segment) the directory of the others, owned.
+type Segment = (Box<[Hot]>, Box<[Cold]>, Box<[AtomicPtr<Hot>]>);
 
-/// The layout of segment `segment` (its hot halves, then its cold halves) and the byte offset of
-/// the cold ones.
+/// The layout of segment `segment` (its hot halves, then its cold halves, then for the first
+/// segment the directory of the other segments' pointers) and the byte offset of the cold halves.
 ///
 /// # Panics
 /// If the segment would not fit the address space (only segments far beyond any memory).
@@ -106,7 +112,37 @@ fn segment_layout(segment: usize) -> (Layout, usize) {
     let too_large = "record list segment larger than the address space";
     let hot = Layout::array::<Hot>(len).expect(too_large);
     let cold = Layout::array::<Cold>(len).expect(too_large);
-    hot.extend(cold).expect(too_large)
+    let (layout, cold_offset) = hot.extend(cold).expect(too_large);
+    let layout = if segment == 0 {
+        let directory = Layout::array::<AtomicPtr<Hot>>(SEGMENTS - 1).expect(too_large);
+        layout.extend(directory).expect(too_large).0
+    } else {
+        layout
+    };
+    (layout.pad_to_align(), cold_offset)
+}
+
+/// Where the directory starts in the first segment: after its cold halves, aligned for pointers.
+#[inline(always)]
+const fn directory_offset() -> usize {
+    (cold_offset(0) + segment_len(0) * size_of::<Cold>())
+        .next_multiple_of(align_of::<AtomicPtr<Hot>>())
+}
+
+/// The directory entry of segment `segment` (at least 1) in the first segment at `first`.
+///
+/// SAFETY: `first` must be a live first segment from `new_segment(0)`, and `1 <= segment <
+/// SEGMENTS`.
+#[inline(always)]
+unsafe fn directory_entry(first: *mut Hot, segment: usize) -> *mut AtomicPtr<Hot> {
+    // SAFETY: the directory's `SEGMENTS - 1` entries start `directory_offset()` bytes into the
+    // first segment (checked against `segment_layout` by a test); entry `segment - 1` is in it.
+    unsafe {
+        first
+            .byte_add(directory_offset())
+            .cast::<AtomicPtr<Hot>>()
+            .add(segment - 1)
+    }
 }
 
 /// The cold half of slot `offset` in the segment at `base`.
@@ -141,9 +177,10 @@ pub struct ListFull;
 pub struct RecordList<O: Orderings> {
     /// Slots reserved so far (written or not).
     head: AtomicUsize,
-    /// Segment `s`: null, or an allocation of `segment_layout(s)` holding `segment_len(s)` hot
-    /// halves followed by as many cold ones.
-    segments: [AtomicPtr<Hot>; SEGMENTS],
+    /// Segment 0: null, or an allocation of `segment_layout(0)` holding `segment_len(0)` hot
+    /// halves, as many cold ones, and the directory: one pointer per later segment `s`, null or an
+    /// allocation of `segment_layout(s)` (hot halves, then cold ones).
+    first: AtomicPtr<Hot>,
     /// The list owns its segments (and, through them, `UnsafeCell`s: not auto-`Sync`).
     _owns: PhantomData<(Segment, O)>,
 }
@@ -161,13 +198,13 @@ impl<O: Orderings> RecordList<O> {
     /// of at most four records reads of the list itself.
     #[cfg(all(test, not(checker)))]
     pub(crate) const HOT_FIELDS_END: usize =
-        std::mem::offset_of!(Self, segments) + std::mem::size_of::<AtomicPtr<Hot>>();
+        std::mem::offset_of!(Self, first) + size_of::<AtomicPtr<Hot>>();
 
     /// An empty list (no segment allocated).
     pub fn new() -> Self {
         Self {
             head: AtomicUsize::new(0),
-            segments: std::array::from_fn(|_| AtomicPtr::new(ptr::null_mut())),
+            first: AtomicPtr::new(ptr::null_mut()),
             _owns: PhantomData,
         }
     }
@@ -179,7 +216,14 @@ impl<O: Orderings> RecordList<O> {
         // through the head — readers learn a slot is written from its own flag.
         let index = self.head.fetch_add(1, ord::<O>(Site::Reserve));
         let (segment, offset) = locate(index).ok_or(ListFull)?;
-        let base = self.segment(segment);
+        // Every segment's pointer is found through the first segment, so it comes first.
+        let first = self.segment(&self.first, 0);
+        let base = if segment == 0 {
+            first
+        } else {
+            // SAFETY: `first` is live for `&self`'s lifetime, `segment` below `SEGMENTS`.
+            self.segment(unsafe { &*directory_entry(first, segment) }, segment)
+        };
         // SAFETY: `base` is a live segment of `segment_len(segment)` slots and `offset` is below
         // that length (from `locate`); segments are never freed while `&self` exists.
         let (hot, cold) = unsafe { (&*base.add(offset), &*cold(base, segment, offset)) };
@@ -210,12 +254,13 @@ impl<O: Orderings> RecordList<O> {
 
     /// The segment `segment`, allocating and installing it if it is missing.
     #[inline]
-    fn segment(&self, segment: usize) -> *mut Hot {
+    fn segment(&self, pointer: &AtomicPtr<Hot>, segment: usize) -> *mut Hot {
         // Acquire (SegmentRead): pairs with the Release compare-and-swap in `install`, so the
-        // segment's initialised (not-ready) slots are visible before this thread writes one.
-        let base = self.segments[segment].load(ord::<O>(Site::SegmentRead));
+        // segment's initialised (not-ready) slots, and the first segment's directory, are visible
+        // before this thread writes one or reads the directory.
+        let base = pointer.load(ord::<O>(Site::SegmentRead));
         if base.is_null() {
-            self.install(segment)
+            self.install(pointer, segment)
         } else {
             base
         }
@@ -224,9 +269,9 @@ impl<O: Orderings> RecordList<O> {
     /// Allocates segment `segment` and tries once to install it; returns the installed one.
     #[cold]
     #[inline(never)]
-    fn install(&self, segment: usize) -> *mut Hot {
+    fn install(&self, pointer: &AtomicPtr<Hot>, segment: usize) -> *mut Hot {
         let fresh = new_segment(segment);
-        match self.segments[segment].compare_exchange(
+        match pointer.compare_exchange(
             ptr::null_mut(),
             fresh,
             // Release (SegmentPublish): publishes the slots' initialisation to every thread that
@@ -262,39 +307,37 @@ impl<O: Orderings> RecordList<O> {
         // Relaxed (HeadRead): the head only bounds the scan. A stale value merely skips records
         // whose insert is concurrent with this scan; every slot read is guarded by its own flag.
         let reserved = self.head.load(ord::<O>(Site::HeadRead));
+        if reserved == 0 {
+            return 0;
+        }
+        // Acquire (SegmentRead): pairs with the Release in `install`; see `segment`. A null first
+        // segment means no slot this thread may read: a writer installs the first segment before
+        // any other (`push_keyed`).
+        let first = self.first.load(ord::<O>(Site::SegmentRead));
+        if first.is_null() {
+            return 0;
+        }
+        // The common case, a list of at most four records: its first segment alone.
+        if reserved <= segment_len(0) {
+            // SAFETY: `first` is the live first segment and `reserved` is within it.
+            return unsafe { scan_segment::<O>(first, 0, reserved, &admit, f) };
+        }
         let mut examined = 0;
         let mut remaining = reserved;
         let mut segment = 0;
-        while remaining > 0 {
+        while remaining > 0 && segment < SEGMENTS {
             let len = remaining.min(segment_len(segment));
-            // Acquire (SegmentRead): pairs with the Release in `install`; see `segment`.
-            let base = self.segments[segment].load(ord::<O>(Site::SegmentRead));
+            let base = if segment == 0 {
+                first
+            } else {
+                // SAFETY: `first` is live for `&self`'s lifetime, `segment` below `SEGMENTS`.
+                let entry = unsafe { &*directory_entry(first, segment) };
+                // Acquire (SegmentRead): as for the first segment.
+                entry.load(ord::<O>(Site::SegmentRead))
+            };
             if !base.is_null() {
-                for offset in 0..len {
-                    // SAFETY: `offset < len <= segment_len(segment)`, the segment is live for
-                    // `&self`'s lifetime.
-                    let hot = unsafe { &*base.add(offset) };
-                    // Acquire (SlotRead): pairs with the Release store in `push_keyed`; seeing
-                    // `true` makes the key and the record written before that store visible.
-                    if O::PUBLISH_SLOTS && !hot.ready.load(ord::<O>(Site::SlotRead)) {
-                        continue;
-                    }
-                    examined += 1;
-                    let pass = hot.key.with(|cell| {
-                        // SAFETY: the flag was seen set, so the key was fully written and is never
-                        // written again (with `PUBLISH_SLOTS` off — loom's paper-literal model —
-                        // this is exactly the race loom must report).
-                        admit(unsafe { (*cell).assume_init_ref() })
-                    });
-                    if pass {
-                        // SAFETY: same segment and offset as `hot`.
-                        let cold = unsafe { &*cold(base, segment, offset) };
-                        cold.record.with(|cell| {
-                            // SAFETY: as for the key, under the same flag.
-                            f(unsafe { (*cell).assume_init_ref() })
-                        });
-                    }
-                }
+                // SAFETY: `base` is live segment `segment` and `len` is within it.
+                examined += unsafe { scan_segment::<O>(base, segment, len, &admit, f) };
             }
             remaining -= len;
             segment += 1;
@@ -308,6 +351,48 @@ impl<O: Orderings> RecordList<O> {
         self.for_each(&mut |_| n += 1);
         n
     }
+}
+
+/// Reads the first `len` slots of the segment at `base` (segment `segment`): calls `f` with each
+/// published record whose key `admit` passes; returns the number of published slots read.
+///
+/// SAFETY: `base` must be a live segment `segment` of a list that outlives the call, and `len` at
+/// most its length.
+#[inline(always)]
+unsafe fn scan_segment<O: Orderings>(
+    base: *mut Hot,
+    segment: usize,
+    len: usize,
+    admit: &impl Fn(&Key) -> bool,
+    f: &mut impl FnMut(&Record),
+) -> u32 {
+    let mut examined = 0;
+    for offset in 0..len {
+        // SAFETY: `offset < len <= segment_len(segment)` and the segment is live (the caller's
+        // guarantee).
+        let hot = unsafe { &*base.add(offset) };
+        // Acquire (SlotRead): pairs with the Release store in `push_keyed`; seeing `true` makes
+        // the key and the record written before that store visible.
+        if O::PUBLISH_SLOTS && !hot.ready.load(ord::<O>(Site::SlotRead)) {
+            continue;
+        }
+        examined += 1;
+        let pass = hot.key.with(|cell| {
+            // SAFETY: the flag was seen set, so the key was fully written and is never written
+            // again (with `PUBLISH_SLOTS` off — loom's paper-literal model — this is exactly the
+            // race loom must report).
+            admit(unsafe { (*cell).assume_init_ref() })
+        });
+        if pass {
+            // SAFETY: same segment and offset as `hot`.
+            let cold = unsafe { &*cold(base, segment, offset) };
+            cold.record.with(|cell| {
+                // SAFETY: as for the key, under the same flag.
+                f(unsafe { (*cell).assume_init_ref() })
+            });
+        }
+    }
+    examined
 }
 
 /// Allocates segment `segment` with every slot unwritten.
@@ -330,6 +415,13 @@ fn new_segment(segment: usize) -> *mut Hot {
             });
         }
     }
+    if segment == 0 {
+        for later in 1..SEGMENTS {
+            // SAFETY: the directory lies inside the fresh first segment (`segment_layout`); each
+            // entry is written once here, before the pointer is shared.
+            unsafe { directory_entry(base, later).write(AtomicPtr::new(ptr::null_mut())) };
+        }
+    }
     base
 }
 
@@ -348,6 +440,12 @@ unsafe fn free_segment(base: *mut Hot, segment: usize) {
             std::ptr::drop_in_place(cold(base, segment, offset));
         }
     }
+    if segment == 0 {
+        for later in 1..SEGMENTS {
+            // SAFETY: initialised by `new_segment(0)`, dropped once.
+            unsafe { std::ptr::drop_in_place(directory_entry(base, later)) };
+        }
+    }
     // SAFETY: allocated by `new_segment` with this layout.
     unsafe { alloc::dealloc(base.cast::<u8>(), layout) };
 }
@@ -360,15 +458,25 @@ impl<O: Orderings> Default for RecordList<O> {
 
 impl<O: Orderings> Drop for RecordList<O> {
     fn drop(&mut self) {
-        for (segment, pointer) in self.segments.iter().enumerate() {
-            // Relaxed: `&mut self` — every other thread's accesses happen-before this drop.
-            let base = pointer.load(Ordering::Relaxed);
+        // Relaxed: `&mut self` — every other thread's accesses happen-before this drop.
+        let first = self.first.load(Ordering::Relaxed);
+        if first.is_null() {
+            return;
+        }
+        for segment in 1..SEGMENTS {
+            // SAFETY: `first` is the live first segment; `segment` is below `SEGMENTS`.
+            let entry = unsafe { &*directory_entry(first, segment) };
+            // Relaxed: as above.
+            let base = entry.load(Ordering::Relaxed);
             if !base.is_null() {
                 // SAFETY: installed by `install` from `new_segment(segment)`, and nothing can use
                 // it after the list is dropped.
                 unsafe { free_segment(base, segment) };
             }
         }
+        // SAFETY: installed by `install` from `new_segment(0)`; its directory was read above and
+        // is not used again.
+        unsafe { free_segment(first, 0) };
     }
 }
 
@@ -387,10 +495,11 @@ mod tests {
         assert_eq!(locate(11), Some((1, 7)));
         assert_eq!(locate(12), Some((2, 0)));
         assert_eq!(segment_len(2), 16);
-        // Every index up to the top of the address space has a slot.
-        let (segment, offset) = locate(usize::MAX - 4).unwrap();
-        assert_eq!(segment, SEGMENTS - 1);
-        assert!(offset < segment_len(segment));
+        // The last slot is index 4 (2^50 - 1) - 1, and it is the last of the last segment;
+        // `usize::MAX` (whose `+ 4` overflows) has none either.
+        let last = 4 * ((1usize << 50) - 1) - 1;
+        assert_eq!(locate(last), Some((SEGMENTS - 1, segment_len(SEGMENTS - 1) - 1)));
+        assert_eq!(locate(last + 1), None);
         assert_eq!(locate(usize::MAX), None);
         // Consecutive indices are consecutive slots.
         let mut previous = locate(0).unwrap();
@@ -408,17 +517,26 @@ mod tests {
 
     /// The leak tracker ([`crate::sync::Tracked`]) costs nothing outside loom: a slot's hot half
     /// is its key and flag in 32 bytes (two to a cache line), its cold half the 128-byte record,
-    /// and the first segment, 4 slots in 640 bytes, stays within glibc's per-thread cache of small
-    /// blocks (see the module documentation).
+    /// and the first segment, 4 slots and the directory in 1 032 bytes, stays within glibc's
+    /// per-thread cache of small blocks (see the module documentation).
     #[test]
     fn a_slot_is_a_32_byte_key_and_flag_and_a_record() {
         assert_eq!(size_of::<Hot>(), 32);
         assert_eq!(size_of::<Cold>(), size_of::<Record>());
         assert_eq!(size_of::<Record>(), 128);
+        // The first segment: 4 hot halves, 4 records, 49 directory entries, 1 032 bytes.
         assert_eq!(
             segment_layout(0),
-            (Layout::from_size_align(640, 8).unwrap(), 128)
+            (Layout::from_size_align(1032, 8).unwrap(), 128)
         );
+        assert_eq!(directory_offset() + (SEGMENTS - 1) * 8, 1032);
+        assert_eq!(
+            segment_layout(1),
+            (Layout::from_size_align(1280, 8).unwrap(), 256)
+        );
+        for segment in 0..20 {
+            assert_eq!(cold_offset(segment), segment_layout(segment).1, "segment {segment}");
+        }
     }
 
     #[test]

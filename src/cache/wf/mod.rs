@@ -59,7 +59,7 @@ use super::{
     IrradianceCache, Work, WorkerStats,
 };
 use crate::ic::{InsertError, Interpolated, Key, Record, WorkerId};
-use crate::sync::{fence, AtomicPtr, Ordering, Tracked};
+use crate::sync::{fence, AtomicPtr, AtomicU8, Ordering, Tracked};
 use glam::Vec3;
 #[cfg(not(feature = "loom"))]
 use list::RecordList;
@@ -94,9 +94,12 @@ struct Node<O: Orderings> {
     /// Null, or a child published by a Release compare-and-swap and never changed again. The
     /// node's first cache line (64 bytes, the node is aligned to one).
     children: [AtomicPtr<Node<O>>; 8],
-    /// The list: its head and first segments in the node's second cache line, its other segment
-    /// pointers (used only by lists of more than 60 records) beyond. A walk reads two lines of a
-    /// node: the second always, the first when a child's loose cell holds the query.
+    /// Bit `o` set once `children[o]` is published and its publisher, or an insert that walked
+    /// into it, has said so. Opens the node's second cache line.
+    occupied: AtomicU8,
+    /// The list: its head and first segment pointer, on the node's second cache line. A walk reads
+    /// the second line of every node it visits, and the first only when a published child's loose
+    /// cell holds the query: leaves cost one line.
     records: RecordList<O>,
     /// The node owns its children as boxes (see the type's documentation).
     _owns: PhantomData<[Box<Node<O>>; 8]>,
@@ -110,6 +113,7 @@ impl<O: Orderings> Node<O> {
     fn new() -> Self {
         Self {
             children: std::array::from_fn(|_| AtomicPtr::new(ptr::null_mut())),
+            occupied: AtomicU8::new(0),
             records: RecordList::new(),
             _owns: PhantomData,
             _tracked: Tracked::new(),
@@ -126,6 +130,25 @@ impl<O: Orderings> Node<O> {
         // SAFETY: a non-null child pointer came from `Box::into_raw` in `graft`, was published
         // once and is freed only when the cache (`&mut`) is dropped, which `&self` rules out.
         unsafe { child.as_ref() }
+    }
+}
+
+impl<O: Orderings> Node<O> {
+    /// Sets `octant`'s bit in the occupancy mask unless this thread already sees it set. Called
+    /// before an insert goes below a published child, so that no record is stored under a child
+    /// that lookups may skip: a lookup that happens-after the insert loads a mask holding the bit.
+    #[inline]
+    fn mark(&self, octant: Octant) {
+        // Relaxed (MaskRead): only saves the read-modify-write when the bit is already set. If
+        // this load sees the bit, any load that happens-after it sees the bit too (read-read
+        // coherence, and bits are never cleared), so skipping the `fetch_or` loses nothing.
+        if self.occupied.load(ord::<O>(Site::MaskRead)) & octant.bit() == 0 {
+            // Relaxed (MaskSet): the mask publishes nothing. A lookup dereferences a child only
+            // through the pointer's own Acquire load; the bit only tells it which pointers to load.
+            // What a lookup must see is the bit set by an insert that happens-before it, and
+            // write-read coherence gives that for any ordering.
+            self.occupied.fetch_or(octant.bit(), ord::<O>(Site::MaskSet));
+        }
     }
 }
 
@@ -213,16 +236,26 @@ impl<O: Orderings> WaitFree<O> {
             let octant = cell.octant(record.position);
             cell = cell.child(octant);
             node = match node.child(octant) {
-                Some(child) => child,
+                Some(child) => {
+                    // Whoever published the child may not have set its bit yet.
+                    node.mark(octant);
+                    child
+                }
                 None => {
                     steps += 1;
                     match self.graft(node, octant, cell, level, depth, record) {
-                        None => return (Placed::Stored, steps, lost),
+                        None => {
+                            node.mark(octant);
+                            return (Placed::Stored, steps, lost);
+                        }
                         Some(winner) => {
                             lost += 1;
                             match self.policy {
                                 CasFailure::Discard => return (Placed::Discarded, steps, lost),
-                                CasFailure::Adopt => winner,
+                                CasFailure::Adopt => {
+                                    node.mark(octant);
+                                    winner
+                                }
                             }
                         }
                     }
@@ -306,10 +339,17 @@ impl<O: Orderings> WaitFree<O> {
     ) {
         work.nodes += 1;
         work.records += node.records.scan(admit, f);
-        let mask = self.config.geometry().children_holding(&cell, point);
-        for octant in Octant::in_mask(mask) {
-            if let Some(child) = node.child(octant) {
-                self.walk_node(child, cell.child(octant), point, admit, f, work);
+        // Relaxed (MaskRead): which child pointers to load; each is then loaded with Acquire
+        // (`Node::child`) before anything is read through it, and a null one is skipped. A child
+        // whose bit this load misses was published without any edge to this lookup, or its bit
+        // was set by an insert that does not happen-before it (see `Node::mark`).
+        let occupied = node.occupied.load(ord::<O>(Site::MaskRead));
+        if occupied != 0 {
+            let mask = occupied & self.config.geometry().children_holding(&cell, point);
+            for octant in Octant::in_mask(mask) {
+                if let Some(child) = node.child(octant) {
+                    self.walk_node(child, cell.child(octant), point, admit, f, work);
+                }
             }
         }
     }
@@ -356,6 +396,8 @@ fn build_path<O: Orderings>(
         // Relaxed: the parent is still private; the Release compare-and-swap in `graft` publishes
         // the whole chain at once.
         parent.children[octant.index()].store(Box::into_raw(node), Ordering::Relaxed);
+        // Relaxed: still private, published with the chain.
+        parent.occupied.store(octant.bit(), Ordering::Relaxed);
         node = parent;
     }
     node
@@ -437,10 +479,11 @@ impl<O: Orderings> CacheHandle for WfHandle<'_, O> {
             Placed::Discarded => Ok(self.core.inserted(Inserted::Discarded(record.id()), steps)),
             #[cfg(feature = "loom")]
             Placed::Full => Err(InsertError::ListFull),
-            // Outside loom a list has a slot for every index below `usize::MAX - 3`: `head` would
-            // have to be reserved 2^64 - 4 times first.
+            // Outside loom a list has 4 (2^50 - 1) slots: filling them takes 7 * 10^17 bytes of
+            // segments, more than any 64-bit address space (2^57 bytes at most) can map, so an
+            // allocation fails long before (`list.rs`).
             #[cfg(not(feature = "loom"))]
-            Placed::Full => unreachable!("a record list ran out of its 2^64 - 4 slots"),
+            Placed::Full => unreachable!("a record list ran out of its 4 (2^50 - 1) slots"),
         }
     }
 
@@ -464,24 +507,25 @@ mod tests {
     use std::mem::size_of;
 
     /// The leak tracker ([`crate::sync::Tracked`]) costs nothing outside loom: a node is its eight
-    /// child pointers and its list, 568 bytes on 64-bit targets rounded up to 576 by the
-    /// alignment to a cache line; the children fill the first line and the list's head and first
-    /// segment pointer open the second.
+    /// child pointers, its occupancy mask and its list (head and first segment), 88 bytes on
+    /// 64-bit targets, 128 with the alignment to a cache line: the children fill the first line,
+    /// and the mask, the list's head and its first segment pointer open the second.
     #[test]
     fn a_node_is_its_children_and_its_list_on_cache_lines() {
         use std::mem::{align_of, offset_of};
         assert_eq!(
             size_of::<Node<Minimal>>(),
-            (size_of::<[AtomicPtr<Node<Minimal>>; 8]>() + size_of::<RecordList<Minimal>>())
+            (size_of::<[AtomicPtr<Node<Minimal>>; 8]>() + 8 + size_of::<RecordList<Minimal>>())
                 .next_multiple_of(64)
         );
         assert_eq!(align_of::<Node<Minimal>>(), 64);
         #[cfg(target_pointer_width = "64")]
         {
-            assert_eq!(size_of::<Node<Minimal>>(), 576);
+            assert_eq!(size_of::<Node<Minimal>>(), 128);
             assert_eq!(offset_of!(Node<Minimal>, children), 0);
-            assert_eq!(offset_of!(Node<Minimal>, records), 64);
-            assert_eq!(RecordList::<Minimal>::HOT_FIELDS_END, 16);
+            assert_eq!(offset_of!(Node<Minimal>, occupied), 64);
+            assert_eq!(offset_of!(Node<Minimal>, records), 72);
+            assert_eq!(72 + RecordList::<Minimal>::HOT_FIELDS_END, 88);
         }
     }
 

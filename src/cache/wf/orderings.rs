@@ -30,11 +30,16 @@ pub enum Site {
     ChildPublish,
     /// Failed compare-and-swap on a child pointer (another thread published first).
     ChildCasFailure,
+    /// `fetch_or` setting a child's bit in its parent's occupancy mask (by the thread that
+    /// published the child, or by any insert that walks into it and finds the bit clear).
+    MaskSet,
+    /// Load of a node's occupancy mask by a lookup (which child pointers to load at all).
+    MaskRead,
 }
 
 impl Site {
     /// How many sites there are.
-    pub const COUNT: usize = 10;
+    pub const COUNT: usize = 12;
 
     /// Every site, in index order.
     pub const ALL: [Site; Site::COUNT] = [
@@ -48,6 +53,8 @@ impl Site {
         Site::ChildRead,
         Site::ChildPublish,
         Site::ChildCasFailure,
+        Site::MaskSet,
+        Site::MaskRead,
     ];
 }
 
@@ -111,6 +118,8 @@ const MINIMAL: [Ordering; Site::COUNT] = [
     Acquire, // ChildRead
     Release, // ChildPublish
     Acquire, // ChildCasFailure
+    Relaxed, // MaskSet
+    Relaxed, // MaskRead
 ];
 
 impl Orderings for Minimal {
