@@ -29,7 +29,9 @@ mod imp {
 #[cfg(all(feature = "shuttle", not(feature = "loom")))]
 mod imp {
     pub use super::cell::UnsafeCell;
-    pub use shuttle::sync::atomic::{fence, AtomicBool, AtomicPtr, AtomicU8, AtomicUsize, Ordering};
+    pub use shuttle::sync::atomic::{
+        fence, AtomicBool, AtomicPtr, AtomicU8, AtomicUsize, Ordering,
+    };
     pub use shuttle::sync::{Arc, Mutex, MutexGuard, RwLock, RwLockReadGuard, RwLockWriteGuard};
     pub use shuttle::thread;
 }

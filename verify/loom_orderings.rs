@@ -10,7 +10,7 @@ mod loom_common;
 
 use loom_common::models::*;
 use loom_common::{expect_failure, model_outcomes};
-use wfic::cache::wf::orderings::{PaperLiteral, Site, Weakened};
+use wfic::cache::wf::orderings::{PaperLiteral, Site, Unhelped, Weakened};
 use wfic::cache::CasFailure;
 
 /// The kinds of causality report loom 0.7 gives (`loom/src/rt/cell.rs`, `rt/atomic.rs`) that our
@@ -84,6 +84,21 @@ fn paper_literal_list_reads_a_reserved_but_unwritten_slot() {
         &message,
         Race::ReadAfterUnorderedWrite,
         Made::InList,
+    );
+}
+
+/// Without helping, a record stored below a child its publisher has not yet marked is missed by a
+/// lookup that happens-after its insert: the model's own assertion, not a causality report (no
+/// memory is read unordered; the lookup just never loads the child).
+#[test]
+fn an_unhelped_insert_below_an_unmarked_child_is_missed() {
+    let message = expect_failure(|| {
+        an_insert_below_a_child_not_yet_marked_is_found::<Unhelped>();
+    });
+    eprintln!("unhelped: {}", message.trim());
+    assert!(
+        message.contains("a record whose insert happened-before the lookup was missed"),
+        "expected the model's assertion, got: {message}"
     );
 }
 
@@ -168,14 +183,27 @@ fn relaxed_segment_publish_is_caught() {
     );
 }
 
-/// SegmentCasFailure: the loser of the segment race writes a record into a slot of the winner's
-/// segment, whose creation (the cell's `UnsafeCell::new`, list.rs) it is not ordered after.
+/// SegmentCasFailure, at its two uses. (1) A list that first outgrows its first segment installs
+/// its directory of later segments the way it installs a segment; the loser of that race loads an
+/// entry of the winner's directory, whose creation (`AtomicPtr::new`, list.rs) it is not ordered
+/// after. (2) With the directory already there, the loser of the race for a segment writes a
+/// record into a slot of the winner's segment, whose creation (the cell's `UnsafeCell::new`,
+/// list.rs) it is not ordered after.
 #[test]
 fn relaxed_segment_cas_failure_is_caught() {
     let m =
         expect_failure(two_inserts_race_to_install_one_segment::<Weakened<SEGMENT_CAS_FAILURE>>);
     assert_race(
-        "SegmentCasFailure",
+        "SegmentCasFailure (directory)",
+        &m,
+        Race::LoadOfUnorderedAtomic,
+        Made::InList,
+    );
+    let m = expect_failure(
+        two_inserts_race_to_install_a_later_segment::<Weakened<SEGMENT_CAS_FAILURE>>,
+    );
+    assert_race(
+        "SegmentCasFailure (segment)",
         &m,
         Race::WriteAfterUnorderedWrite,
         Made::InList,

@@ -81,6 +81,23 @@ fn two_inserts_race_to_install_one_segment_minimal() {
 }
 
 #[test]
+fn two_inserts_race_to_install_a_later_segment_minimal() {
+    model(two_inserts_race_to_install_a_later_segment::<Minimal>);
+}
+
+/// The occupancy mask: an insert that walks into a child its publisher has not yet marked marks
+/// it, and the lookup that follows the insert finds the record. Both cases are reached: the
+/// insert walking into the other's child, and not.
+#[test]
+fn an_insert_below_a_child_not_yet_marked_is_found_minimal() {
+    let (yes, no) = model_outcomes(an_insert_below_a_child_not_yet_marked_is_found::<Minimal>);
+    assert!(
+        yes > 0 && no > 0,
+        "walked into the other's child: {yes}, not: {no}"
+    );
+}
+
+#[test]
 fn two_deep_inserts_race_for_a_shared_child_adopt() {
     let (lost, won) =
         model_outcomes(|| two_deep_inserts_race_for_a_shared_child::<Minimal>(CasFailure::Adopt));

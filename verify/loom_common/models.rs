@@ -158,8 +158,9 @@ pub fn a_segment_grows_while_another_thread_inserts_and_a_third_reads<O: Orderin
     assert_eq!(list.published(), 3);
 }
 
-/// Two appends race to install the same missing segment (slots 2 and 3 are segment 1): one
-/// compare-and-swap wins, the loser frees its own segment and writes into the winner's.
+/// Two appends race to install the same missing segment (slots 2 and 3 are segment 1), and before
+/// it the list's directory of later segments: each race is won by one compare-and-swap, and the
+/// loser frees its own directory or segment and uses the winner's.
 pub fn two_inserts_race_to_install_one_segment<O: Orderings>() {
     let list = Arc::new(RecordList::<O>::new());
     list.push(sealed(0.0)).unwrap();
@@ -177,6 +178,53 @@ pub fn two_inserts_race_to_install_one_segment<O: Orderings>() {
     });
     seen.sort_by(f32::total_cmp);
     assert_eq!(seen, [0.0, 1.0, 2.0, 3.0]);
+}
+
+/// Two appends race to install segment 2 (slots 6 to 13) of a list whose first two segments, and
+/// so its directory, already exist: the race is for the segment alone, not for the directory too
+/// (which `two_inserts_race_to_install_one_segment` also races for).
+pub fn two_inserts_race_to_install_a_later_segment<O: Orderings>() {
+    let list = Arc::new(RecordList::<O>::new());
+    for k in 0..6 {
+        list.push(sealed(k as f32)).unwrap(); // segments 0 (2 slots) and 1 (4) are full
+    }
+    let (l1, l2) = (list.clone(), list.clone());
+    let a = thread::spawn(move || l1.push(sealed(6.0)).unwrap());
+    let b = thread::spawn(move || l2.push(sealed(7.0)).unwrap());
+    let mut idx = [a.join().unwrap(), b.join().unwrap()];
+    idx.sort_unstable();
+    assert_eq!(idx, [6, 7]);
+    let mut seen = 0;
+    list.for_each(&mut |r| {
+        assert!(r.is_intact(), "torn record");
+        seen += 1;
+    });
+    assert_eq!(seen, 8);
+}
+
+/// An insert stores a record in a depth-1 node that another insert is publishing; the lookup that
+/// follows the first insert (its thread joined, so the insert happens-before the lookup) must find
+/// the record, whether or not the publisher has yet set the node's bit in the root's occupancy
+/// mask. Returns whether, in this execution, the record's insert walked into the node the other
+/// insert published (one step, no compare-and-swap): the case where only its own marking makes
+/// the record visible.
+pub fn an_insert_below_a_child_not_yet_marked_is_found<O: Orderings>() -> bool {
+    let cache = wf::<O>(CasFailure::Adopt);
+    let (c1, c2) = (cache.clone(), cache.clone());
+    let mine = record_at_depth(1, 1.0);
+    let publisher = thread::spawn(move || insert_one(&*c1, 1, deep_a()));
+    let inserter = thread::spawn(move || insert_one(&*c2, 2, record_at_depth(1, 1.0)));
+    let (outcome, steps, lost) = inserter.join().unwrap();
+    assert!(matches!(outcome, Inserted::Stored(_)));
+    let found = valid_at(&*cache, 0, mine.position);
+    assert!(
+        found
+            .iter()
+            .any(|r| r.position == mine.position && r.is_intact()),
+        "a record whose insert happened-before the lookup was missed"
+    );
+    publisher.join().unwrap();
+    steps == 1 && lost == 0
 }
 
 /// The depth of the deep models' records: a record's path below the root is three nodes, so a

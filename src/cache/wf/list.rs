@@ -12,11 +12,15 @@
 //!    `4 (2^50 - 1)` slots, about 4.5 * 10^15: at 160 bytes a slot, more than any 64-bit address
 //!    space holds (2^57 bytes with 5-level paging), so the list is bounded by memory, not by a
 //!    constant. The list itself holds only the head and the first segment's pointer; the other
-//!    segments' pointers live in a directory at the end of the first segment, so a node stays
-//!    small (two cache lines) however long its list may grow. (`B = 4` and 49 directory entries
-//!    keep the first segment, 4 × (32 + 128) + 49 × 8 = 1 032 bytes, inside glibc's per-thread
-//!    cache of small blocks (at most 1 032 bytes); with `B = 8` a larger first segment missed it
-//!    and a WF insert creating a node cost 3.2 times more: 500 ns against 154 ns in `insert/wf`.)
+//!    segments' pointers live in a directory, allocated (and installed with one compare-and-swap,
+//!    like a segment) when the list first outgrows its first segment, and found through a pointer
+//!    at the end of the first segment. So a node stays small however long its list may grow, and a
+//!    first segment is 4 × (32 + 128) + 8 = 648 bytes: the keys of the many short lists lie close
+//!    together (with the 49-entry directory inline, 1 032-byte first segments spread them out and
+//!    cost WF lookups 5–8% against TRA's; `benches/lookup_pairs.rs`), and the block stays inside
+//!    glibc's per-thread cache of small blocks (at most 1 032 bytes; with `B = 8` a larger first
+//!    segment missed it and a WF insert creating a node cost 3.2 times more: 500 ns against 154 ns
+//!    in `insert/wf`).
 //!    Under `loom` the segments are shrunk to `2, 4, 8` slots so three inserts reach a segment
 //!    boundary; the logic is the same.
 //!
@@ -100,10 +104,29 @@ impl Hot {
 
 /// What a segment holds, for the list's auto traits: hot halves, cold halves and (the first
 /// segment) the directory of the others, owned.
-type Segment = (Box<[Hot]>, Box<[Cold]>, Box<[AtomicPtr<Hot>]>);
+type Segment = (Box<[Hot]>, Box<[Cold]>, Box<Directory>);
+
+/// The pointers of a list's segments after the first: entry `s - 1` is segment `s`'s, null or an
+/// allocation of `segment_layout(s)` (hot halves, then cold ones).
+struct Directory {
+    entries: [AtomicPtr<Hot>; SEGMENTS - 1],
+    /// Under loom, a directory never freed fails the model (`Allocation leaked.`).
+    _tracked: Tracked,
+}
+
+impl Directory {
+    /// An empty directory. Under loom a leak report names the caller's line.
+    #[cfg_attr(feature = "loom", track_caller)]
+    fn new() -> Self {
+        Self {
+            entries: std::array::from_fn(|_| AtomicPtr::new(ptr::null_mut())),
+            _tracked: Tracked::new(),
+        }
+    }
+}
 
 /// The layout of segment `segment` (its hot halves, then its cold halves, then for the first
-/// segment the directory of the other segments' pointers) and the byte offset of the cold halves.
+/// segment the pointer to the directory of the others) and the byte offset of the cold halves.
 ///
 /// # Panics
 /// If the segment would not fit the address space (only segments far beyond any memory).
@@ -114,7 +137,7 @@ fn segment_layout(segment: usize) -> (Layout, usize) {
     let cold = Layout::array::<Cold>(len).expect(too_large);
     let (layout, cold_offset) = hot.extend(cold).expect(too_large);
     let layout = if segment == 0 {
-        let directory = Layout::array::<AtomicPtr<Hot>>(SEGMENTS - 1).expect(too_large);
+        let directory = Layout::new::<AtomicPtr<Directory>>();
         layout.extend(directory).expect(too_large).0
     } else {
         layout
@@ -122,26 +145,24 @@ fn segment_layout(segment: usize) -> (Layout, usize) {
     (layout.pad_to_align(), cold_offset)
 }
 
-/// Where the directory starts in the first segment: after its cold halves, aligned for pointers.
+/// Where the directory pointer lies in the first segment: after its cold halves, aligned.
 #[inline(always)]
 const fn directory_offset() -> usize {
     (cold_offset(0) + segment_len(0) * size_of::<Cold>())
-        .next_multiple_of(align_of::<AtomicPtr<Hot>>())
+        .next_multiple_of(align_of::<AtomicPtr<Directory>>())
 }
 
-/// The directory entry of segment `segment` (at least 1) in the first segment at `first`.
+/// The directory pointer in the first segment at `first`.
 ///
-/// SAFETY: `first` must be a live first segment from `new_segment(0)`, and `1 <= segment <
-/// SEGMENTS`.
+/// SAFETY: `first` must be a live first segment from `new_segment(0)`.
 #[inline(always)]
-unsafe fn directory_entry(first: *mut Hot, segment: usize) -> *mut AtomicPtr<Hot> {
-    // SAFETY: the directory's `SEGMENTS - 1` entries start `directory_offset()` bytes into the
-    // first segment (checked against `segment_layout` by a test); entry `segment - 1` is in it.
+unsafe fn directory_pointer(first: *mut Hot) -> *mut AtomicPtr<Directory> {
+    // SAFETY: the pointer lies `directory_offset()` bytes into the first segment (checked against
+    // `segment_layout` by a test).
     unsafe {
         first
             .byte_add(directory_offset())
-            .cast::<AtomicPtr<Hot>>()
-            .add(segment - 1)
+            .cast::<AtomicPtr<Directory>>()
     }
 }
 
@@ -178,8 +199,8 @@ pub struct RecordList<O: Orderings> {
     /// Slots reserved so far (written or not).
     head: AtomicUsize,
     /// Segment 0: null, or an allocation of `segment_layout(0)` holding `segment_len(0)` hot
-    /// halves, as many cold ones, and the directory: one pointer per later segment `s`, null or an
-    /// allocation of `segment_layout(s)` (hot halves, then cold ones).
+    /// halves, as many cold ones, and the pointer to the [`Directory`] of the later segments (null
+    /// until the list first outgrows this segment).
     first: AtomicPtr<Hot>,
     /// The list owns its segments (and, through them, `UnsafeCell`s: not auto-`Sync`).
     _owns: PhantomData<(Segment, O)>,
@@ -221,8 +242,8 @@ impl<O: Orderings> RecordList<O> {
         let base = if segment == 0 {
             first
         } else {
-            // SAFETY: `first` is live for `&self`'s lifetime, `segment` below `SEGMENTS`.
-            self.segment(unsafe { &*directory_entry(first, segment) }, segment)
+            let directory = self.directory(first);
+            self.segment(&directory.entries[segment - 1], segment)
         };
         // SAFETY: `base` is a live segment of `segment_len(segment)` slots and `offset` is below
         // that length (from `locate`); segments are never freed while `&self` exists.
@@ -292,6 +313,42 @@ impl<O: Orderings> RecordList<O> {
         }
     }
 
+    /// The directory of the list whose live first segment is `first`, allocated and installed
+    /// (one compare-and-swap, never retried) if it is missing.
+    #[inline]
+    fn directory(&self, first: *mut Hot) -> &Directory {
+        // SAFETY: `first` is the list's live first segment, which lives as long as `&self`.
+        let pointer = unsafe { &*directory_pointer(first) };
+        // Acquire (SegmentRead): pairs with the Release compare-and-swap below, so the directory's
+        // null entries are visible before this thread reads or installs one.
+        let existing = pointer.load(ord::<O>(Site::SegmentRead));
+        let directory = if existing.is_null() {
+            let fresh = Box::into_raw(Box::new(Directory::new()));
+            match pointer.compare_exchange(
+                ptr::null_mut(),
+                fresh,
+                // Release (SegmentPublish): publishes the directory's initialisation, as for a
+                // segment.
+                ord::<O>(Site::SegmentPublish),
+                // Acquire (SegmentCasFailure): we go on to use the winner's directory, whose
+                // initialisation must happen-before that.
+                ord::<O>(Site::SegmentCasFailure),
+            ) {
+                Ok(_) => fresh,
+                Err(winner) => {
+                    // SAFETY: `fresh` came from `Box::into_raw` just above and was never shared.
+                    drop(unsafe { Box::from_raw(fresh) });
+                    winner
+                }
+            }
+        } else {
+            existing
+        };
+        // SAFETY: a non-null directory pointer came from `Box::into_raw` and is freed only when
+        // the list is dropped (`&mut self`), which `&self` rules out.
+        unsafe { &*directory }
+    }
+
     /// Calls `f` with every published record. Slots that are reserved but not yet written, or
     /// whose segment is not yet installed, are skipped.
     #[inline]
@@ -322,6 +379,14 @@ impl<O: Orderings> RecordList<O> {
             // SAFETY: `first` is the live first segment and `reserved` is within it.
             return unsafe { scan_segment::<O>(first, 0, reserved, &admit, f) };
         }
+        // SAFETY: `first` is the list's live first segment.
+        let pointer = unsafe { &*directory_pointer(first) };
+        // Acquire (SegmentRead): pairs with the Release in `directory`, as for a segment. A null
+        // directory hides the later segments, whose slots were then written by inserts that do
+        // not happen-before this scan (a writer installs the directory before its segment).
+        let directory = pointer.load(ord::<O>(Site::SegmentRead));
+        // SAFETY: a non-null directory is live for `&self`'s lifetime (see `directory`).
+        let directory = unsafe { directory.as_ref() };
         let mut examined = 0;
         let mut remaining = reserved;
         let mut segment = 0;
@@ -329,11 +394,11 @@ impl<O: Orderings> RecordList<O> {
             let len = remaining.min(segment_len(segment));
             let base = if segment == 0 {
                 first
-            } else {
-                // SAFETY: `first` is live for `&self`'s lifetime, `segment` below `SEGMENTS`.
-                let entry = unsafe { &*directory_entry(first, segment) };
+            } else if let Some(directory) = directory {
                 // Acquire (SegmentRead): as for the first segment.
-                entry.load(ord::<O>(Site::SegmentRead))
+                directory.entries[segment - 1].load(ord::<O>(Site::SegmentRead))
+            } else {
+                break;
             };
             if !base.is_null() {
                 // SAFETY: `base` is live segment `segment` and `len` is within it.
@@ -416,11 +481,9 @@ fn new_segment(segment: usize) -> *mut Hot {
         }
     }
     if segment == 0 {
-        for later in 1..SEGMENTS {
-            // SAFETY: the directory lies inside the fresh first segment (`segment_layout`); each
-            // entry is written once here, before the pointer is shared.
-            unsafe { directory_entry(base, later).write(AtomicPtr::new(ptr::null_mut())) };
-        }
+        // SAFETY: the directory pointer lies inside the fresh first segment (`segment_layout`)
+        // and is written once here, before the segment is shared.
+        unsafe { directory_pointer(base).write(AtomicPtr::new(ptr::null_mut())) };
     }
     base
 }
@@ -441,10 +504,9 @@ unsafe fn free_segment(base: *mut Hot, segment: usize) {
         }
     }
     if segment == 0 {
-        for later in 1..SEGMENTS {
-            // SAFETY: initialised by `new_segment(0)`, dropped once.
-            unsafe { std::ptr::drop_in_place(directory_entry(base, later)) };
-        }
+        // SAFETY: initialised by `new_segment(0)`, dropped once (the directory it points to, if
+        // any, is the list's to free).
+        unsafe { std::ptr::drop_in_place(directory_pointer(base)) };
     }
     // SAFETY: allocated by `new_segment` with this layout.
     unsafe { alloc::dealloc(base.cast::<u8>(), layout) };
@@ -463,19 +525,24 @@ impl<O: Orderings> Drop for RecordList<O> {
         if first.is_null() {
             return;
         }
-        for segment in 1..SEGMENTS {
-            // SAFETY: `first` is the live first segment; `segment` is below `SEGMENTS`.
-            let entry = unsafe { &*directory_entry(first, segment) };
-            // Relaxed: as above.
-            let base = entry.load(Ordering::Relaxed);
-            if !base.is_null() {
-                // SAFETY: installed by `install` from `new_segment(segment)`, and nothing can use
-                // it after the list is dropped.
-                unsafe { free_segment(base, segment) };
+        // SAFETY: `first` is the live first segment.
+        let pointer = unsafe { &*directory_pointer(first) };
+        // Relaxed: as above.
+        let directory = pointer.load(Ordering::Relaxed);
+        if !directory.is_null() {
+            // SAFETY: installed by `directory` from `Box::into_raw`, owned by this list alone.
+            let directory = unsafe { Box::from_raw(directory) };
+            for (index, entry) in directory.entries.iter().enumerate() {
+                // Relaxed: as above.
+                let base = entry.load(Ordering::Relaxed);
+                if !base.is_null() {
+                    // SAFETY: installed by `install` from `new_segment(index + 1)`, and nothing
+                    // can use it after the list is dropped.
+                    unsafe { free_segment(base, index + 1) };
+                }
             }
         }
-        // SAFETY: installed by `install` from `new_segment(0)`; its directory was read above and
-        // is not used again.
+        // SAFETY: installed by `install` from `new_segment(0)`, not used again.
         unsafe { free_segment(first, 0) };
     }
 }
@@ -498,7 +565,10 @@ mod tests {
         // The last slot is index 4 (2^50 - 1) - 1, and it is the last of the last segment;
         // `usize::MAX` (whose `+ 4` overflows) has none either.
         let last = 4 * ((1usize << 50) - 1) - 1;
-        assert_eq!(locate(last), Some((SEGMENTS - 1, segment_len(SEGMENTS - 1) - 1)));
+        assert_eq!(
+            locate(last),
+            Some((SEGMENTS - 1, segment_len(SEGMENTS - 1) - 1))
+        );
         assert_eq!(locate(last + 1), None);
         assert_eq!(locate(usize::MAX), None);
         // Consecutive indices are consecutive slots.
@@ -517,25 +587,29 @@ mod tests {
 
     /// The leak tracker ([`crate::sync::Tracked`]) costs nothing outside loom: a slot's hot half
     /// is its key and flag in 32 bytes (two to a cache line), its cold half the 128-byte record,
-    /// and the first segment, 4 slots and the directory in 1 032 bytes, stays within glibc's
+    /// and the first segment, 4 slots and the directory pointer in 648 bytes, stays within glibc's
     /// per-thread cache of small blocks (see the module documentation).
     #[test]
     fn a_slot_is_a_32_byte_key_and_flag_and_a_record() {
         assert_eq!(size_of::<Hot>(), 32);
         assert_eq!(size_of::<Cold>(), size_of::<Record>());
         assert_eq!(size_of::<Record>(), 128);
-        // The first segment: 4 hot halves, 4 records, 49 directory entries, 1 032 bytes.
+        // The first segment: 4 hot halves, 4 records, the directory pointer, 648 bytes.
         assert_eq!(
             segment_layout(0),
-            (Layout::from_size_align(1032, 8).unwrap(), 128)
+            (Layout::from_size_align(648, 8).unwrap(), 128)
         );
-        assert_eq!(directory_offset() + (SEGMENTS - 1) * 8, 1032);
+        assert_eq!(directory_offset() + 8, 648);
         assert_eq!(
             segment_layout(1),
             (Layout::from_size_align(1280, 8).unwrap(), 256)
         );
         for segment in 0..20 {
-            assert_eq!(cold_offset(segment), segment_layout(segment).1, "segment {segment}");
+            assert_eq!(
+                cold_offset(segment),
+                segment_layout(segment).1,
+                "segment {segment}"
+            );
         }
     }
 

@@ -89,18 +89,17 @@ pub enum CasFailure {
 /// `RecordList`'s marker does for its segments). Sharing a node is sound because a child is only
 /// dereferenced after an Acquire load saw its Release publication, is never changed or freed
 /// while the tree is shared (only `Drop`, with `&mut`, frees it), and is read only through `&`.
-#[repr(C, align(64))]
+#[repr(C)]
 struct Node<O: Orderings> {
-    /// Null, or a child published by a Release compare-and-swap and never changed again. The
-    /// node's first cache line (64 bytes, the node is aligned to one).
-    children: [AtomicPtr<Node<O>>; 8],
     /// Bit `o` set once `children[o]` is published and its publisher, or an insert that walked
-    /// into it, has said so. Opens the node's second cache line.
+    /// into it, has said so.
     occupied: AtomicU8,
-    /// The list: its head and first segment pointer, on the node's second cache line. A walk reads
-    /// the second line of every node it visits, and the first only when a published child's loose
-    /// cell holds the query: leaves cost one line.
+    /// The list's head and first segment pointer. With the mask, the 24 bytes a walk reads of
+    /// every node it visits; a leaf costs no more.
     records: RecordList<O>,
+    /// Null, or a child published by a Release compare-and-swap and never changed again. Read
+    /// only where the mask says a child whose loose cell holds the query was published.
+    children: [AtomicPtr<Node<O>>; 8],
     /// The node owns its children as boxes (see the type's documentation).
     _owns: PhantomData<[Box<Node<O>>; 8]>,
     /// Under loom, a node never freed fails the model (`Allocation leaked.`); zero-sized elsewhere.
@@ -147,7 +146,8 @@ impl<O: Orderings> Node<O> {
             // through the pointer's own Acquire load; the bit only tells it which pointers to load.
             // What a lookup must see is the bit set by an insert that happens-before it, and
             // write-read coherence gives that for any ordering.
-            self.occupied.fetch_or(octant.bit(), ord::<O>(Site::MaskSet));
+            self.occupied
+                .fetch_or(octant.bit(), ord::<O>(Site::MaskSet));
         }
     }
 }
@@ -238,7 +238,9 @@ impl<O: Orderings> WaitFree<O> {
             node = match node.child(octant) {
                 Some(child) => {
                     // Whoever published the child may not have set its bit yet.
-                    node.mark(octant);
+                    if O::HELP_MARK {
+                        node.mark(octant);
+                    }
                     child
                 }
                 None => {
@@ -253,7 +255,9 @@ impl<O: Orderings> WaitFree<O> {
                             match self.policy {
                                 CasFailure::Discard => return (Placed::Discarded, steps, lost),
                                 CasFailure::Adopt => {
-                                    node.mark(octant);
+                                    if O::HELP_MARK {
+                                        node.mark(octant);
+                                    }
                                     winner
                                 }
                             }
@@ -506,26 +510,25 @@ mod tests {
     use crate::cache::CacheConfig;
     use std::mem::size_of;
 
-    /// The leak tracker ([`crate::sync::Tracked`]) costs nothing outside loom: a node is its eight
-    /// child pointers, its occupancy mask and its list (head and first segment), 88 bytes on
-    /// 64-bit targets, 128 with the alignment to a cache line: the children fill the first line,
-    /// and the mask, the list's head and its first segment pointer open the second.
+    /// The leak tracker ([`crate::sync::Tracked`]) costs nothing outside loom: a node is its
+    /// occupancy mask, its list (head and first segment pointer) and its eight child pointers, 88
+    /// bytes on 64-bit targets, with what every visit reads (mask, head, first segment) in its
+    /// first 24. Not aligned to a cache line: the 128-byte aligned layout, through glibc's
+    /// `memalign`, spread nodes out and cost 10% more per lookup (`benches/lookup_pairs.rs`).
     #[test]
-    fn a_node_is_its_children_and_its_list_on_cache_lines() {
-        use std::mem::{align_of, offset_of};
+    fn a_node_is_its_mask_its_list_and_its_children() {
+        use std::mem::offset_of;
         assert_eq!(
             size_of::<Node<Minimal>>(),
-            (size_of::<[AtomicPtr<Node<Minimal>>; 8]>() + 8 + size_of::<RecordList<Minimal>>())
-                .next_multiple_of(64)
+            8 + size_of::<RecordList<Minimal>>() + size_of::<[AtomicPtr<Node<Minimal>>; 8]>()
         );
-        assert_eq!(align_of::<Node<Minimal>>(), 64);
         #[cfg(target_pointer_width = "64")]
         {
-            assert_eq!(size_of::<Node<Minimal>>(), 128);
-            assert_eq!(offset_of!(Node<Minimal>, children), 0);
-            assert_eq!(offset_of!(Node<Minimal>, occupied), 64);
-            assert_eq!(offset_of!(Node<Minimal>, records), 72);
-            assert_eq!(72 + RecordList::<Minimal>::HOT_FIELDS_END, 88);
+            assert_eq!(size_of::<Node<Minimal>>(), 88);
+            assert_eq!(offset_of!(Node<Minimal>, occupied), 0);
+            assert_eq!(offset_of!(Node<Minimal>, records), 8);
+            assert_eq!(8 + RecordList::<Minimal>::HOT_FIELDS_END, 24);
+            assert_eq!(offset_of!(Node<Minimal>, children), 24);
         }
     }
 

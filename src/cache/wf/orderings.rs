@@ -73,6 +73,10 @@ pub trait Orderings: sealed::Sealed + Send + Sync + 'static {
     /// Whether writers publish slots and readers check the flag. Only the loom-only
     /// `PaperLiteral` policy clears it (readers then read every reserved slot, as Listing 6 does).
     const PUBLISH_SLOTS: bool = true;
+    /// Whether an insert that walks into a published child marks it in the parent's occupancy
+    /// mask when its publisher has not yet. Only the loom-only `Unhelped` policy clears it (then
+    /// only the publisher marks), and loom must find the record a later lookup misses.
+    const HELP_MARK: bool = true;
 }
 
 /// The ordering of `site` under policy `O` (a constant after inlining).
@@ -157,6 +161,23 @@ impl Orderings for PaperLiteral {
     const NAME: &'static str = "paper-literal";
     const SITES: [Ordering; Site::COUNT] = MINIMAL;
     const PUBLISH_SLOTS: bool = false;
+}
+
+/// [`Minimal`], but an insert walking into a published child leaves marking it to the child's
+/// publisher. Loom only: the record it stores below a child not yet marked is invisible to a
+/// lookup that happens-after the insert, and loom must find that.
+#[cfg(feature = "loom")]
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Unhelped;
+
+#[cfg(feature = "loom")]
+impl sealed::Sealed for Unhelped {}
+
+#[cfg(feature = "loom")]
+impl Orderings for Unhelped {
+    const NAME: &'static str = "unhelped";
+    const SITES: [Ordering; Site::COUNT] = MINIMAL;
+    const HELP_MARK: bool = false;
 }
 
 /// [`Minimal`] with the site numbered `SITE` weakened to `Relaxed`. Loom only: each instance is a
