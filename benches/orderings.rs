@@ -16,6 +16,9 @@
 //!   per lookup of the pair: wall time over both threads' lookups).
 //! * `orderings/insert-2t/*` — two threads inserting concurrently into a freshly pre-filled cache,
 //!   each its own half of a batch of [`INSERT_BATCH_2T`] (time per insert of the pair).
+//! * `orderings/insert-split/*` — the same batch inserted four ways (one thread; two threads on
+//!   interleaved halves; two threads split by space; two threads into caches of their own), to
+//!   separate list growth from sharing (`insert_split`).
 //!
 //! Two-thread frames run on two worker threads that live for the whole benchmark function
 //! (`Pair`), are released together by a `Barrier`, and are timed from the first worker's start to
@@ -70,6 +73,8 @@ fn insert_1t<O: Orderings>(g: &mut BenchmarkGroup<'_, WallTime>, id: &str) {
 type Work<O> = Arc<dyn Fn(usize, &mut WfHandle<'_, O>) + Send + Sync>;
 /// A worker's frame: when it started and ended.
 type Done = (Instant, Instant);
+/// What a worker runs in `Pair::run`: its number and the start line, to its start and end times.
+type Job = Arc<dyn Fn(usize, &Barrier) -> Done + Send + Sync>;
 
 /// Two worker threads that live for a whole benchmark function, so every timed frame runs on
 /// warm threads (their allocator caches and arenas included). Spawning fresh threads for every
@@ -114,30 +119,39 @@ impl<O: Orderings> Pair<O> {
     /// `end_frame` once both handles are dropped), which `Frame` cannot express for threads
     /// started before the frame; the cache's ledger still checks it.
     fn frame(&self, cache: &mut Arc<WaitFree<O>>, work: &Work<O>) -> Duration {
-        let start_line = Arc::new(Barrier::new(2));
-        for (k, jobs) in self.jobs.iter().enumerate() {
-            let (cache, work, start_line) =
-                (Arc::clone(cache), Arc::clone(work), Arc::clone(&start_line));
-            let job = Box::new(move || {
-                let mut h = cache.handle(WorkerId::new(k as u32));
-                start_line.wait();
-                let start = Instant::now();
-                work(k, &mut h);
-                let end = Instant::now();
-                // Dropped before the result is sent: the handle's counters are in the cache
-                // when `frame` calls `end_frame`.
-                drop(h);
-                (start, end)
-            });
-            jobs.send(job).expect("bench worker alive");
-        }
-        let results = [0, 1].map(|_| self.done.recv().expect("bench worker alive"));
-        let start = results.iter().map(|r| r.0).min().unwrap();
-        let end = results.iter().map(|r| r.1).max().unwrap();
+        let shared = Arc::clone(cache);
+        let work = Arc::clone(work);
+        let elapsed = self.run(Arc::new(move |k, start_line: &Barrier| {
+            let mut h = shared.handle(WorkerId::new(k as u32));
+            start_line.wait();
+            let start = Instant::now();
+            work(k, &mut h);
+            let end = Instant::now();
+            // Dropped before the result is sent: the handle's counters are in the cache when
+            // `frame` calls `end_frame`.
+            drop(h);
+            (start, end)
+        }));
         // The jobs (and their clones of the cache) are gone once their results arrived.
         Arc::get_mut(cache)
             .expect("no worker holds the cache between frames")
             .end_frame();
+        elapsed
+    }
+
+    /// Runs `job(worker, start_line)` on both workers; each job waits on the start line once its
+    /// set-up is done and returns when it started and ended. Returns the time from the first start
+    /// to the last end.
+    fn run(&self, job: Job) -> Duration {
+        let start_line = Arc::new(Barrier::new(2));
+        for (k, jobs) in self.jobs.iter().enumerate() {
+            let (job, start_line) = (Arc::clone(&job), Arc::clone(&start_line));
+            jobs.send(Box::new(move || job(k, &start_line)))
+                .expect("bench worker alive");
+        }
+        let results = [0, 1].map(|_| self.done.recv().expect("bench worker alive"));
+        let start = results.iter().map(|r| r.0).min().unwrap();
+        let end = results.iter().map(|r| r.1).max().unwrap();
         end - start
     }
 }
@@ -197,6 +211,83 @@ fn insert_2t<O: Orderings>(g: &mut BenchmarkGroup<'_, WallTime>, id: &str) {
             })
         })
     });
+}
+
+/// The `insert-split` group: the same [`INSERT_BATCH_2T`] fresh records into a freshly pre-filled
+/// cache, split four ways, to tell what a second inserting thread costs apart (list growth and
+/// allocation, sharing of nodes and list heads, the machine):
+///
+/// * `1t` — worker 0 inserts the whole batch, worker 1 waits (the single-thread baseline: every
+///   list grows and every segment is allocated as in the two-thread runs, nothing is shared);
+/// * `2t-interleaved` — each worker inserts its half, the halves drawn from the same random
+///   stream (what `insert-2t` does): both workers append to the same lists and race for the same
+///   children;
+/// * `2t-by-space` — worker 0 inserts the batch's records with `x` below the root's centre, worker
+///   1 the others: below the root they share no node, so no list head or child pointer is written
+///   by both;
+/// * `2t-own-caches` — each worker inserts its half into a cache of its own (both pre-filled):
+///   nothing is shared at all, so the remaining cost over `1t` is the machine's and the
+///   allocator's.
+///
+/// Time is per insert of the whole batch (wall time of the frame / records).
+fn insert_split(c: &mut Criterion) {
+    let w = workload();
+    let batch: &'static [Record] = &w.fresh_2t[..INSERT_BATCH_2T];
+    let center = w.config.root().center.x;
+    let (west, east): (Vec<Record>, Vec<Record>) =
+        batch.iter().partition(|r| r.position.x < center);
+    let by_space: &'static [Vec<Record>; 2] = Box::leak(Box::new([west, east]));
+    let half = INSERT_BATCH_2T / 2;
+    let halves: &'static [&'static [Record]; 2] =
+        Box::leak(Box::new([&batch[..half], &batch[half..]]));
+    let mut g = group(c, "insert-split");
+    let pair = Pair::<Minimal>::new();
+    let shared = |g: &mut BenchmarkGroup<'_, WallTime>, id: &str, parts: [&'static [Record]; 2]| {
+        g.bench_function(id, |b| {
+            b.iter_custom(|iters| {
+                whole_batches(iters, || {
+                    let mut cache = Arc::new(prefilled(make::<Minimal>(), &w.prefill));
+                    let work: Work<Minimal> = Arc::new(move |k, h| {
+                        for r in parts[k] {
+                            let _ = black_box(h.insert(black_box(*r)));
+                        }
+                    });
+                    pair.frame(&mut cache, &work)
+                })
+            })
+        });
+    };
+    shared(&mut g, "1t", [batch, &[]]);
+    shared(&mut g, "2t-interleaved", *halves);
+    shared(&mut g, "2t-by-space", [&by_space[0], &by_space[1]]);
+    g.bench_function("2t-own-caches", |b| {
+        b.iter_custom(|iters| {
+            whole_batches(iters, || {
+                let caches = Arc::new([0, 1].map(|_| prefilled(make::<Minimal>(), &w.prefill)));
+                let c = Arc::clone(&caches);
+                let t = pair.run(Arc::new(move |k, start_line: &Barrier| {
+                    let mut h = c[k].handle(WorkerId::new(0));
+                    start_line.wait();
+                    let start = Instant::now();
+                    for r in halves[k] {
+                        let _ = black_box(h.insert(black_box(*r)));
+                    }
+                    (start, Instant::now())
+                }));
+                drop(caches);
+                t
+            })
+        })
+    });
+    g.finish();
+}
+
+/// `iters` inserts for criterion's `iter_custom`, as whole batches of [`INSERT_BATCH_2T`] (the
+/// split must keep its halves): runs enough batches and scales their time to `iters` inserts.
+fn whole_batches(iters: u64, mut batch: impl FnMut() -> Duration) -> Duration {
+    let batches = iters.div_ceil(INSERT_BATCH_2T as u64);
+    let total: Duration = (0..batches).map(|_| batch()).sum();
+    total.mul_f64(iters as f64 / (batches * INSERT_BATCH_2T as u64) as f64)
 }
 
 fn group<'a>(c: &'a mut Criterion, name: &str) -> BenchmarkGroup<'a, WallTime> {
@@ -323,6 +414,7 @@ fn print_ratios() {
 fn main() {
     let mut c = Criterion::default().configure_from_args();
     orderings(&mut c);
+    insert_split(&mut c);
     c.final_summary();
     print_ratios();
 }
