@@ -7,12 +7,17 @@
 //!
 //! * `floor/lookup-tra` — TRA's lookup through its handle: the figure being explained.
 //! * `floor/walk` — the walk alone: every node whose loose cell holds the point is visited and
-//!   its list read, but no record is touched (the visitor counts).
+//!   its list read, but no record is touched (the visitor counts; since the lean read path, the
+//!   walk still reads each key, as the visitor sees only records that pass `|_| true`).
 //! * `floor/walk+read` — the walk, and each examined record's position, normal and radius read
 //!   (summed, so the loads cannot be dropped).
 //! * `floor/walk+test` — the walk, and Ward's validity test on each examined record.
 //! * `floor/walk+interpolate` — the walk, the test and the weighted, extrapolated sum of the valid
 //!   records: the lookup without the handle's bookkeeping.
+//! * `floor/walk+prefilter` — the walk, each key tested by the query's prefilter, and only the
+//!   records it admits read (position, normal, radius summed): what a lookup reads.
+//! * `floor/walk+prefilter+interpolate` — the same, and the exact test and weighted sum on the
+//!   admitted records: a lookup without its handle's bookkeeping.
 //! * `floor/examined-contiguous` — the records each query examines, gathered beforehand into one
 //!   contiguous array in query order, and put through the same accumulator: no walk, no pointer,
 //!   every byte streamed. What the same arithmetic costs when memory is no obstacle.
@@ -27,7 +32,7 @@ use glam::Vec3;
 use std::hint::black_box;
 use std::time::Instant;
 use wfic::cache::{CacheHandle, IrradianceCache, Octree, Sequential};
-use wfic::ic::{valid_weight, Accumulator, Record};
+use wfic::ic::{valid_weight, Accumulator, Prefilter, Record};
 
 /// Each query's examined (or valid) records, back to back in query order.
 struct Gathered {
@@ -132,6 +137,32 @@ fn floor(c: &mut Criterion) {
                 let (p, n) = w.queries[i];
                 let mut acc = Accumulator::new(black_box(p), n, ACCURACY, None);
                 tree.visit(p, &mut |r| {
+                    acc.add(r);
+                });
+                black_box(acc.finish());
+            })
+        })
+    });
+    g.bench_function("walk+prefilter", |b| {
+        b.iter_custom(|iters| {
+            cycle(iters, q, |i| {
+                let (p, n) = w.queries[i];
+                let pre = Prefilter::new(black_box(p), n, ACCURACY);
+                let mut sum = Vec3::ZERO;
+                tree.visit_admitted(&pre, &mut |r| {
+                    sum += r.position + r.normal * r.radius;
+                });
+                black_box(sum);
+            })
+        })
+    });
+    g.bench_function("walk+prefilter+interpolate", |b| {
+        b.iter_custom(|iters| {
+            cycle(iters, q, |i| {
+                let (p, n) = w.queries[i];
+                let mut acc = Accumulator::new(black_box(p), n, ACCURACY, None);
+                let pre = *acc.prefilter();
+                tree.visit_admitted(&pre, &mut |r| {
                     acc.add(r);
                 });
                 black_box(acc.finish());

@@ -1,6 +1,10 @@
 //! WF: the wait-free shared irradiance cache (paper §3.3, Listing 6), done right.
 //!
-//! Each node holds eight child pointers and an append-only record list (`list.rs`).
+//! Each node holds an occupancy mask, an append-only record list (`list.rs`) and eight child
+//! pointers. A lookup reads the mask and the list's head first (24 bytes), the keys of the list's
+//! records next (32 bytes each), a record only when its key passes the query's prefilter, and a
+//! child pointer only when the mask says that child is published and its loose cell holds the
+//! query point.
 //!
 //! * **Insert** walks from the root towards the node that fits the record (the same placement as
 //!   every other cache, [`super::octree`]). When a child on the way is missing, the whole rest of
@@ -12,8 +16,12 @@
 //!   - [`CasFailure::Adopt`]: the private subtree is dropped and the walk continues into the
 //!     winner's child, where the record is stored. No sample is lost, as in Mitsuba 0.6's
 //!     lock-free octree.
-//! * **Lookup** reads child pointers and published slots only: no read-modify-write, no fence, no
-//!   store (unless the [`ReadFence`] policy asks for the paper's avoided barrier).
+//! * **Lookup** reads masks, child pointers and published slots only: no read-modify-write, no
+//!   fence, no store (unless the [`ReadFence`] policy asks for the paper's avoided barrier).
+//! * **The mask** is a hint with one rule: no record is stored below a child whose bit is clear.
+//!   The publisher of a child sets its bit right after the compare-and-swap, and any insert that
+//!   walks into a child sets it first if it does not see it set (one `fetch_or`, never retried), so
+//!   a lookup that happens-after an insert sees every bit on the record's path.
 //!
 //! **Wait-freedom, exactly.** No operation loops on a condition another thread controls: every
 //! loop is over the tree's levels, a node's eight children, or a list's slots, and no
