@@ -2,7 +2,7 @@
 # Mutation testing with cargo-mutants over the caches (src/cache), the irradiance-cache maths
 # (src/ic) and the history checkers (src/lincheck).
 #
-#   bash verify/mutants.sh [wf|cache|ic|lincheck|all]      (default: all)
+#   bash verify/mutants.sh [wf|cache|cache-lookup|ic|lincheck|all]      (default: all)
 #   bash verify/mutants.sh summary SCOPE                    (rewrite SCOPE's summary.md)
 #
 # Each scope runs as a cascade: every mutant is first tested against the fastest suite that can
@@ -120,6 +120,7 @@ filter_of() {
     case $1 in
         wf) echo 'src/cache/wf/**' ;;
         cache) echo 'src/cache/*.rs' ;;
+        cache-lookup) echo 'src/cache/{octree,sequential}.rs' ;;
         ic) echo 'src/ic/**' ;;
         lincheck) echo 'src/lincheck/**' ;;
     esac
@@ -151,6 +152,18 @@ run_scope() {
             stage cache no -f 'src/cache/*.rs' --no-default-features \
                 $(targets agreement robustness leaks wf_api lookup_work lincheck)
             stage cache no -f 'src/cache/*.rs' --no-default-features $(targets stress)
+            ;;
+        cache-lookup)
+            # The files of src/cache/*.rs that the lean read path rewrote (the geometry and the
+            # plain octree), through the cache scope's stages: for a quick rerun after a change
+            # to them, when the whole cache scope (45 minutes) does not fit.
+            local f=(-f src/cache/octree.rs -f src/cache/sequential.rs)
+            stage cache-lookup yes "${f[@]}" --no-default-features --cargo-arg=--lib
+            stage cache-lookup no "${f[@]}" --no-default-features --features loom \
+                $(targets loom_lck_lw loom_wf)
+            stage cache-lookup no "${f[@]}" --no-default-features \
+                $(targets agreement robustness leaks wf_api lookup_work lincheck)
+            stage cache-lookup no "${f[@]}" --no-default-features $(targets stress)
             ;;
         ic)
             # The maths' unit tests also run under the checker features, where the crate is small.
