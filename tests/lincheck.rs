@@ -283,16 +283,16 @@ fn id(worker: u32, seq: u64) -> RecordId {
     RecordId::new(WorkerId::new(worker), 0, seq)
 }
 
-/// The WF schedule, hand-built from `WaitFree::visit` and `RecordList::for_each`:
+/// The WF schedule, hand-built from `WaitFree::walk` and `RecordList::scan`:
 ///
-/// 1. thread 0's lookup at P begins; `visit` scans the root's list first (`for_each` loads the
+/// 1. thread 0's lookup at P begins; `walk` scans the root's list first (`scan` loads the
 ///    list's head: 0 records) — A is not there yet;
 /// 2. thread 1 inserts A: it belongs in the root (depth 0), so it is pushed on the root's list,
 ///    after the lookup read the head; the insert returns `Stored`;
 /// 3. thread 2 then inserts B (it begins after A returned): B belongs deep in the octant of P,
 ///    whose child is missing, so the whole path is grafted by one compare-and-swap; it returns;
-/// 4. the lookup, done with the root's list, loads the root's child pointers (Acquire), finds B's
-///    path, and returns {B}.
+/// 4. the lookup, done with the root's list, loads the root's occupancy mask (B's publisher set
+///    its bit) and the child pointer it names (Acquire), finds B's path, and returns {B}.
 ///
 /// In real time A precedes B, and the lookup saw B: any linearization puts A before B before the
 /// lookup, so the lookup must see A. It did not: not linearizable. It is set-consistent: A did not
