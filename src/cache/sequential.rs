@@ -350,4 +350,24 @@ mod tests {
         ids.sort_unstable();
         assert_eq!(ids, [0, 1, 2, 3]);
     }
+
+    /// `visit_admitted` walks the same nodes as `visit` and shows, in the same order, only the
+    /// records whose keys the prefilter admits: the reach is `a R` = 0.5 * 2 = 1, and of the three
+    /// records in the visited nodes two lie within 0.42 of the query, the third 1.82 away.
+    #[test]
+    fn visit_admitted_shows_the_admitted_records_of_the_same_nodes() {
+        let mut tree = Octree::new(config());
+        tree.insert(record(Vec3::splat(1.0), 0)).unwrap();
+        tree.insert(record(Vec3::new(1.5, 1.0, 1.0), 1)).unwrap();
+        tree.insert(record(Vec3::new(3.0, 1.0, 1.0), 2)).unwrap();
+        let q = Vec3::splat(1.2);
+        let mut all = Vec::new();
+        let nodes = tree.visit(q, &mut |r| all.push(r.id().seq()));
+        let pre = Prefilter::new(q, Vec3::Z, config().accuracy());
+        let mut admitted = Vec::new();
+        let admitted_nodes = tree.visit_admitted(&pre, &mut |r| admitted.push(r.id().seq()));
+        assert_eq!(admitted_nodes, nodes);
+        assert_eq!(all, [0, 1, 2]);
+        assert_eq!(admitted, [0, 1]);
+    }
 }
