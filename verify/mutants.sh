@@ -2,7 +2,9 @@
 # Mutation testing with cargo-mutants over the caches (src/cache), the irradiance-cache maths
 # (src/ic) and the history checkers (src/lincheck).
 #
-#   bash verify/mutants.sh [wf|cache|cache-lookup|ic|lincheck|all]      (default: all)
+#   bash verify/mutants.sh [wf|cache|ic|lincheck|all]      (default: all)
+#   bash verify/mutants.sh wf-lookup|cache-lookup           (the files or functions the lean read
+#                                                            path rewrote, when a scope does not fit)
 #   bash verify/mutants.sh summary SCOPE                    (rewrite SCOPE's summary.md)
 #
 # Each scope runs as a cascade: every mutant is first tested against the fastest suite that can
@@ -120,7 +122,16 @@ filter_of() {
     case $1 in
         wf) echo 'src/cache/wf/**' ;;
         cache) echo 'src/cache/*.rs' ;;
+        wf-lookup)
+            # The functions of src/cache/wf that the lean read path added or rewrote (the mask and
+            # its helping, the walk, the directory, the scan, the segments' hot and cold halves),
+            # through the wf scope's stages: for a quick rerun when the whole scope does not fit.
+            local re='mark|walk|directory|scan|cold|tail|push_keyed|segment_layout|new_segment|free_segment|WaitFree<O>::key|Directory'
+            stage wf-lookup yes -f 'src/cache/wf/**' --re "$re" --features loom -- --test loom_wf --test loom_orderings --test loom_leaks
+            stage wf-lookup no -f 'src/cache/wf/**' --re "$re" -- "${real_thread_suites[@]}"
+            ;;
         cache-lookup) echo 'src/cache/{octree,sequential}.rs' ;;
+        wf-lookup) echo 'src/cache/wf/**' ;;
         ic) echo 'src/ic/**' ;;
         lincheck) echo 'src/lincheck/**' ;;
     esac
