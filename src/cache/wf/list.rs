@@ -291,26 +291,11 @@ impl<O: Orderings> RecordList<O> {
     #[cold]
     #[inline(never)]
     fn install(&self, pointer: &AtomicPtr<Hot>, segment: usize) -> *mut Hot {
-        let fresh = new_segment(segment);
-        match pointer.compare_exchange(
-            ptr::null_mut(),
-            fresh,
-            // Release (SegmentPublish): publishes the slots' initialisation to every thread that
-            // later loads this pointer with Acquire. Nothing is read through the old null value,
-            // so the success ordering needs no Acquire half.
-            ord::<O>(Site::SegmentPublish),
-            // Acquire (SegmentCasFailure): another thread installed a segment first; we are about
-            // to write into it, so its initialisation must happen-before our write.
-            ord::<O>(Site::SegmentCasFailure),
-        ) {
-            Ok(_) => fresh,
-            Err(winner) => {
-                // SAFETY: `fresh` came from `new_segment(segment)` just above and was never shared
-                // (the compare-and-swap failed).
-                unsafe { free_segment(fresh, segment) };
-                winner
-            }
-        }
+        // SAFETY (of the closure's call): `publish_once` passes back `fresh` only when its
+        // compare-and-swap failed, so the segment was never shared.
+        publish_once::<O, _>(pointer, new_segment(segment), |fresh| unsafe {
+            free_segment(fresh, segment)
+        })
     }
 
     /// The directory of the list whose live first segment is `first`, allocated and installed
@@ -319,28 +304,16 @@ impl<O: Orderings> RecordList<O> {
     fn directory(&self, first: *mut Hot) -> &Directory {
         // SAFETY: `first` is the list's live first segment, which lives as long as `&self`.
         let pointer = unsafe { &*directory_pointer(first) };
-        // Acquire (SegmentRead): pairs with the Release compare-and-swap below, so the directory's
-        // null entries are visible before this thread reads or installs one.
+        // Acquire (SegmentRead): pairs with the Release compare-and-swap in `publish_once`, so the
+        // directory's null entries are visible before this thread reads or installs one.
         let existing = pointer.load(ord::<O>(Site::SegmentRead));
         let directory = if existing.is_null() {
             let fresh = Box::into_raw(Box::new(Directory::new()));
-            match pointer.compare_exchange(
-                ptr::null_mut(),
-                fresh,
-                // Release (SegmentPublish): publishes the directory's initialisation, as for a
-                // segment.
-                ord::<O>(Site::SegmentPublish),
-                // Acquire (SegmentCasFailure): we go on to use the winner's directory, whose
-                // initialisation must happen-before that.
-                ord::<O>(Site::SegmentCasFailure),
-            ) {
-                Ok(_) => fresh,
-                Err(winner) => {
-                    // SAFETY: `fresh` came from `Box::into_raw` just above and was never shared.
-                    drop(unsafe { Box::from_raw(fresh) });
-                    winner
-                }
-            }
+            // SAFETY (of the closure's call): `fresh` came from `Box::into_raw` just above and is
+            // passed back only if it was never shared.
+            publish_once::<O, _>(pointer, fresh, |fresh| {
+                drop(unsafe { Box::from_raw(fresh) })
+            })
         } else {
             existing
         };
@@ -415,6 +388,33 @@ impl<O: Orderings> RecordList<O> {
         let mut n = 0;
         self.for_each(&mut |_| n += 1);
         n
+    }
+}
+
+/// Installs `fresh` (a segment or a directory, initialised and not yet shared) into the null
+/// `pointer` with one compare-and-swap, never retried; returns what the pointer holds after it.
+/// If another thread installed first, `fresh` goes to `free` and the winner's is returned.
+fn publish_once<O: Orderings, T>(
+    pointer: &AtomicPtr<T>,
+    fresh: *mut T,
+    free: impl FnOnce(*mut T),
+) -> *mut T {
+    match pointer.compare_exchange(
+        ptr::null_mut(),
+        fresh,
+        // Release (SegmentPublish): publishes `fresh`'s initialisation to every thread that later
+        // loads this pointer with Acquire. Nothing is read through the old null value, so the
+        // success ordering needs no Acquire half.
+        ord::<O>(Site::SegmentPublish),
+        // Acquire (SegmentCasFailure): another thread installed first; the caller goes on to use
+        // the winner's, whose initialisation must happen-before that.
+        ord::<O>(Site::SegmentCasFailure),
+    ) {
+        Ok(_) => fresh,
+        Err(winner) => {
+            free(fresh);
+            winner
+        }
     }
 }
 
