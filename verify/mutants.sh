@@ -69,7 +69,9 @@ summary() {
     local scope=$1 filter=$2
     # The mutants the scope has now (a code change between stages moves line numbers, so the
     # first stage's count can be stale).
-    cargo mutants --list -f "$filter" > "$root/results/mutants/$scope/mutants-now.txt"
+    local re=()
+    if [ "$scope" = wf-lookup ]; then re=(--re "$wf_lookup_re"); fi
+    cargo mutants --list -f "$filter" "${re[@]}" > "$root/results/mutants/$scope/mutants-now.txt"
     python3 - "$root/results/mutants/$scope" "$(git rev-parse HEAD)" "$version" <<'PY'
 import pathlib, sys, datetime
 out, commit, version = pathlib.Path(sys.argv[1]), sys.argv[2], sys.argv[3]
@@ -118,20 +120,14 @@ print("\n".join(md))
 PY
 }
 
+wf_lookup_re='mark|walk|directory|scan|cold|tail|push_keyed|segment_layout|new_segment|free_segment|WaitFree<O>::key|Directory'
+
 filter_of() {
     case $1 in
         wf) echo 'src/cache/wf/**' ;;
         cache) echo 'src/cache/*.rs' ;;
-        wf-lookup)
-            # The functions of src/cache/wf that the lean read path added or rewrote (the mask and
-            # its helping, the walk, the directory, the scan, the segments' hot and cold halves),
-            # through the wf scope's stages: for a quick rerun when the whole scope does not fit.
-            local re='mark|walk|directory|scan|cold|tail|push_keyed|segment_layout|new_segment|free_segment|WaitFree<O>::key|Directory'
-            stage wf-lookup yes -f 'src/cache/wf/**' --re "$re" --features loom -- --test loom_wf --test loom_orderings --test loom_leaks
-            stage wf-lookup no -f 'src/cache/wf/**' --re "$re" -- "${real_thread_suites[@]}"
-            ;;
-        cache-lookup) echo 'src/cache/{octree,sequential}.rs' ;;
         wf-lookup) echo 'src/cache/wf/**' ;;
+        cache-lookup) echo 'src/cache/{octree,sequential}.rs' ;;
         ic) echo 'src/ic/**' ;;
         lincheck) echo 'src/lincheck/**' ;;
     esac
@@ -146,6 +142,13 @@ run_scope() {
         wf)
             stage wf yes -f 'src/cache/wf/**' --features loom -- --test loom_wf --test loom_orderings --test loom_leaks
             stage wf no -f 'src/cache/wf/**' -- "${real_thread_suites[@]}"
+            ;;
+        wf-lookup)
+            # The functions of src/cache/wf that the lean read path added or rewrote (the mask and
+            # its helping, the walk, the directory, the scan, the segments' hot and cold halves),
+            # through the wf scope's stages: for a quick rerun when the whole scope does not fit.
+            stage wf-lookup yes -f 'src/cache/wf/**' --re "$wf_lookup_re" --features loom -- --test loom_wf --test loom_orderings --test loom_leaks
+            stage wf-lookup no -f 'src/cache/wf/**' --re "$wf_lookup_re" -- "${real_thread_suites[@]}"
             ;;
         cache)
             # Every stage builds without the renderer (`--no-default-features`): none of these
