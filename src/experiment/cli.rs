@@ -81,8 +81,8 @@ pub struct Table1Args {
     /// Timed runs per column (default: 3 with --quick, 5 without).
     #[arg(long)]
     pub runs: Option<usize>,
-    /// Timed runs of the columns the checks compare, LCK, LW and WF at 2 threads (default: 11
-    /// with --quick, 15 without; at least --runs).
+    /// Timed runs of the columns the checks compare, TRA, and LCK, LW and WF at 2 threads
+    /// (default: 11 with --quick, 15 without; at least --runs).
     #[arg(long)]
     pub paired_runs: Option<usize>,
     /// Image width (default: 160 with --quick, 320 without).
@@ -94,6 +94,10 @@ pub struct Table1Args {
     /// Sampling.
     #[command(flatten)]
     pub sampling: SamplingArgs,
+    /// Leave out the speed-up's controls (WF on one thread and two TRA frames at once, every
+    /// paired round), and with them the table that sets WF's speed-up against the machine.
+    #[arg(long)]
+    pub no_controls: bool,
     /// No progress bar.
     #[arg(long)]
     pub quiet: bool,
@@ -181,6 +185,7 @@ pub fn run(command: ReproduceCommand) -> Result<(), String> {
                 config.schemes = a.schemes.clone();
             }
             config.threads = a.threads.clone();
+            config.controls = !a.no_controls;
             let mut threads = vec![1];
             threads.extend(&config.threads);
             println!("{}", machine.banner(&threads));

@@ -98,6 +98,8 @@ fn progress_bar(tiles: usize, quiet: bool, label: &str) -> ProgressBar {
 struct WorkerOutput {
     tiles: Vec<(usize, Vec<Vec3>)>,
     counters: SampleCounters,
+    /// From the worker's first look at the queue to finding it empty.
+    busy: std::time::Duration,
 }
 
 /// Takes tiles from `next_tile` until none is left, shading each pixel through `handle`.
@@ -108,9 +110,11 @@ fn tile_loop<H: CacheHandle>(
     bar: &ProgressBar,
     handle: &mut H,
 ) -> WorkerOutput {
+    let start = Instant::now();
     let mut out = WorkerOutput {
         tiles: Vec::new(),
         counters: SampleCounters::default(),
+        busy: std::time::Duration::ZERO,
     };
     loop {
         // Relaxed: the counter only has to hand each tile to exactly one worker, which the
@@ -130,6 +134,7 @@ fn tile_loop<H: CacheHandle>(
         out.tiles.push((tile, pixels));
         bar.inc(1);
     }
+    out.busy = start.elapsed();
     out
 }
 
@@ -177,6 +182,7 @@ pub fn render_frame<C: IrradianceCache>(
 
     let mut image = Image::new(settings.width, settings.height);
     let mut counters = SampleCounters::default();
+    let worker_seconds: Vec<f64> = outputs.iter().map(|o| o.busy.as_secs_f64()).collect();
     for out in outputs {
         for (tile, pixels) in out.tiles {
             let (x0, y0, x1, _) = tiles.rect(tile);
@@ -188,7 +194,7 @@ pub fn render_frame<C: IrradianceCache>(
         counters += out.counters;
     }
     let seconds = start.elapsed().as_secs_f64();
-    let stats = FrameStats::new(
+    let mut stats = FrameStats::new(
         scheme,
         threads,
         settings,
@@ -197,6 +203,7 @@ pub fn render_frame<C: IrradianceCache>(
         &report,
         cache.stats().records,
     );
+    stats.worker_seconds = worker_seconds;
     FrameResult { image, stats }
 }
 

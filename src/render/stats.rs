@@ -46,6 +46,9 @@ pub struct FrameStats {
     pub hemisphere_seconds: f64,
     /// Records in the cache after the frame.
     pub cache_records: usize,
+    /// Each worker's busy time: from its first look at the tile queue to finding it empty
+    /// (tiles shaded, nothing else), in worker order.
+    pub worker_seconds: Vec<f64>,
 }
 
 impl FrameStats {
@@ -85,7 +88,20 @@ impl FrameStats {
             rays: counters.rays,
             hemisphere_seconds: counters.hemisphere.as_secs_f64(),
             cache_records,
+            worker_seconds: Vec::new(),
         }
+    }
+
+    /// The share of the frame's worker-time spent not shading: `1 - Σ worker_seconds /
+    /// (threads × seconds)`. It holds the tail (a worker that found the queue empty while the
+    /// other still shaded its last tile), starting and joining the workers, the cache's frame
+    /// close and assembling the image. 0 when no worker time was recorded.
+    pub fn idle_share(&self) -> f64 {
+        let busy: f64 = self.worker_seconds.iter().sum();
+        if self.worker_seconds.is_empty() || self.seconds <= 0.0 {
+            return 0.0;
+        }
+        (1.0 - busy / (self.threads.max(1) as f64 * self.seconds)).max(0.0)
     }
 
     /// Hemisphere rays per second of one core's sampling time.
@@ -124,6 +140,8 @@ impl FrameStats {
             hemisphere_rays: self.rays.hemisphere,
             hemisphere_seconds: self.hemisphere_seconds,
             hemisphere_rays_per_second: self.hemisphere_rays_per_second(),
+            worker_seconds: &self.worker_seconds,
+            idle_share: self.idle_share(),
         };
         let mut out = serde_json::to_string_pretty(&json).expect("statistics serialise");
         out.push('\n');
@@ -156,6 +174,8 @@ struct StatsJson<'a> {
     hemisphere_rays: u64,
     hemisphere_seconds: f64,
     hemisphere_rays_per_second: f64,
+    worker_seconds: &'a [f64],
+    idle_share: f64,
 }
 
 #[cfg(test)]
@@ -184,6 +204,7 @@ mod tests {
             },
             hemisphere_seconds: 0.25,
             cache_records: 9,
+            worker_seconds: vec![0.5, 0.25],
             ..FrameStats::default()
         };
         let json: serde_json::Value =
@@ -198,6 +219,9 @@ mod tests {
         assert_eq!(json["primary_rays"], 32);
         assert_eq!(json["hemisphere_rays"], 1000);
         assert_eq!(json["hemisphere_rays_per_second"], 4000.0);
+        assert_eq!(json["worker_seconds"], serde_json::json!([0.5, 0.25]));
+        // 0.75 s of the 2 x 0.5 s worker-time shaded.
+        assert_eq!(json["idle_share"], 0.25);
         assert_eq!(json.as_object().unwrap().len(), 22);
     }
 }
