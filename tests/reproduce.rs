@@ -53,6 +53,10 @@ fn table1_writes_markdown_csv_and_figure_and_names_the_machine() {
     assert!(md.contains("## cornell") && md.contains("## office"));
     assert!(md.contains("- command: `wfic reproduce table1 --scenes cornell,office"));
     assert!(md.contains("## Checks"));
+    // The speed-up's controls ran in every paired round (15 by default) of both scenes.
+    assert!(md.contains("set against the machine"), "{md}");
+    let speedup = std::fs::read_to_string(dir.join("speedup.csv")).unwrap();
+    assert_eq!(speedup.lines().count(), 1 + 2 * 15, "{speedup}");
     let csv = std::fs::read_to_string(dir.join("table1.csv")).unwrap();
     // Per scene: TRA + 3 schemes x 2 thread counts.
     assert_eq!(csv.lines().count(), 1 + 2 * 7);
