@@ -94,10 +94,11 @@ pub struct Table1Args {
     /// Sampling.
     #[command(flatten)]
     pub sampling: SamplingArgs,
-    /// Leave out the speed-up's controls (WF on one thread and two TRA frames at once, every
-    /// paired round), and with them the table that sets WF's speed-up against the machine.
+    /// Render the speed-up's controls (WF on one thread and two TRA frames at once, every paired
+    /// round) and the table that sets WF's speed-up against the machine (default: true, false
+    /// with --quick, where they would double the run).
     #[arg(long)]
-    pub no_controls: bool,
+    pub controls: Option<bool>,
     /// No progress bar.
     #[arg(long)]
     pub quiet: bool,
@@ -185,7 +186,7 @@ pub fn run(command: ReproduceCommand) -> Result<(), String> {
                 config.schemes = a.schemes.clone();
             }
             config.threads = a.threads.clone();
-            config.controls = !a.no_controls;
+            config.controls = a.controls.unwrap_or(!a.quick);
             let mut threads = vec![1];
             threads.extend(&config.threads);
             println!("{}", machine.banner(&threads));
