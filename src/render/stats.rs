@@ -222,6 +222,6 @@ mod tests {
         assert_eq!(json["worker_seconds"], serde_json::json!([0.5, 0.25]));
         // 0.75 s of the 2 x 0.5 s worker-time shaded.
         assert_eq!(json["idle_share"], 0.25);
-        assert_eq!(json.as_object().unwrap().len(), 22);
+        assert_eq!(json.as_object().unwrap().len(), 24);
     }
 }
