@@ -89,18 +89,30 @@ fn minor_faults() -> u64 {
         .unwrap_or(0)
 }
 
-/// What one worker did: its timed span and what it allocated and faulted in it.
+/// What one worker did: its timed span, the records it handled, and what it allocated and
+/// faulted in the span.
 #[derive(Clone, Copy)]
 struct Span {
     start: Instant,
     end: Instant,
+    records: usize,
     allocs: u64,
     bytes: u64,
     faults: u64,
 }
 
-/// Waits at `start_line`, inserts `records` through `h`, and reports the span.
-fn insert_all<H: CacheHandle>(h: &mut H, records: &[Record], start_line: &Barrier) -> Span {
+/// What a worker does with each record of its part.
+#[derive(Clone, Copy, PartialEq)]
+enum Op {
+    /// Inserts it.
+    Insert,
+    /// Looks its position and normal up (no allocation, nothing written): the control that
+    /// shows what two threads cost each other where the allocator is not involved.
+    Lookup,
+}
+
+/// Waits at `start_line`, applies `op` to each of `records` through `h`, and reports the span.
+fn work<H: CacheHandle>(h: &mut H, op: Op, records: &[Record], start_line: &Barrier) -> Span {
     let (a0, b0, f0) = (
         ALLOCS.with(Cell::get),
         BYTES.with(Cell::get),
@@ -108,23 +120,36 @@ fn insert_all<H: CacheHandle>(h: &mut H, records: &[Record], start_line: &Barrie
     );
     start_line.wait();
     let start = Instant::now();
-    for r in records {
-        let _ = black_box(h.insert(black_box(*r)));
+    match op {
+        Op::Insert => {
+            for r in records {
+                let _ = black_box(h.insert(black_box(*r)));
+            }
+        }
+        Op::Lookup => {
+            for r in records {
+                black_box(h.lookup(black_box(r.position), black_box(r.normal)));
+            }
+        }
     }
     let end = Instant::now();
     Span {
         start,
         end,
+        records: records.len(),
         allocs: ALLOCS.with(Cell::get) - a0,
         bytes: BYTES.with(Cell::get) - b0,
         faults: minor_faults() - f0,
     }
 }
 
-/// One frame's figures, per record of the batch.
+/// One frame's figures, per record of the batch; `busy` is per record of each worker's own part
+/// (its span over its records, averaged over the workers): what one worker's operation cost
+/// while the other ran, free of any skew between their starts.
 #[derive(Clone, Copy, Default)]
 struct Sample {
     ns: f64,
+    busy: f64,
     allocs: f64,
     bytes: f64,
     faults: f64,
@@ -136,6 +161,11 @@ fn sample(spans: &[Span], records: usize) -> Sample {
     let n = records as f64;
     Sample {
         ns: (end - start).as_secs_f64() * 1e9 / n,
+        busy: spans
+            .iter()
+            .map(|s| (s.end - s.start).as_secs_f64() * 1e9 / s.records.max(1) as f64)
+            .sum::<f64>()
+            / spans.len() as f64,
         allocs: spans.iter().map(|s| s.allocs).sum::<u64>() as f64 / n,
         bytes: spans.iter().map(|s| s.bytes).sum::<u64>() as f64 / n,
         faults: spans.iter().map(|s| s.faults).sum::<u64>() as f64 / n,
@@ -143,20 +173,20 @@ fn sample(spans: &[Span], records: usize) -> Sample {
 }
 
 /// `parts[k]` inserted by worker `k`, all workers into one freshly pre-filled cache.
-fn shared<C: IrradianceCache + Sync>(make: impl Fn() -> C, parts: &[&[Record]]) -> Sample {
+fn shared<C: IrradianceCache + Sync>(make: impl Fn() -> C, op: Op, parts: &[&[Record]]) -> Sample {
     let w = workload();
     let mut cache = prefilled(make(), &w.prefill);
     let frame = cache.frame();
     let start_line = Barrier::new(parts.len());
     let spans = frame.run(parts.len(), |h, id| {
-        insert_all(h, parts[id.index() as usize], &start_line)
+        work(h, op, parts[id.index() as usize], &start_line)
     });
     frame.close();
     sample(&spans, parts.iter().map(|p| p.len()).sum())
 }
 
 /// `parts[k]` inserted by worker `k` into a freshly pre-filled cache of its own.
-fn own<C: IrradianceCache + Send>(make: impl Fn() -> C, parts: &[&[Record]]) -> Sample {
+fn own<C: IrradianceCache + Send>(make: impl Fn() -> C, op: Op, parts: &[&[Record]]) -> Sample {
     let w = workload();
     let mut caches: Vec<C> = parts
         .iter()
@@ -172,7 +202,7 @@ fn own<C: IrradianceCache + Send>(make: impl Fn() -> C, parts: &[&[Record]]) -> 
                 s.spawn(move || {
                     let frame = cache.frame();
                     let span = frame
-                        .run(1, |h, _| insert_all(h, part, start_line))
+                        .run(1, |h, _| work(h, op, part, start_line))
                         .pop()
                         .expect("one worker");
                     frame.close();
@@ -215,14 +245,48 @@ fn main() {
 
     type Variant<'a> = (&'static str, Box<dyn Fn() -> Sample + 'a>);
     let variants: Vec<Variant<'_>> = vec![
-        ("wf-1t", Box::new(|| shared(wf, &[batch]))),
-        ("wf-1t-half", Box::new(|| shared(wf, &halves[..1]))),
-        ("wf-2t-interleaved", Box::new(|| shared(wf, &halves))),
-        ("wf-2t-by-space", Box::new(|| shared(wf, &[&west, &east]))),
-        ("wf-2t-own-caches", Box::new(|| own(wf, &halves))),
-        ("tra-1t", Box::new(|| own(tra, &[batch]))),
-        ("tra-1t-half", Box::new(|| own(tra, &halves[..1]))),
-        ("tra-2t-own-caches", Box::new(|| own(tra, &halves))),
+        ("wf-1t", Box::new(|| shared(wf, Op::Insert, &[batch]))),
+        (
+            "wf-1t-half",
+            Box::new(|| shared(wf, Op::Insert, &halves[..1])),
+        ),
+        (
+            "wf-2t-interleaved",
+            Box::new(|| shared(wf, Op::Insert, &halves)),
+        ),
+        (
+            "wf-2t-by-space",
+            Box::new(|| shared(wf, Op::Insert, &[&west, &east])),
+        ),
+        (
+            "wf-2t-own-caches",
+            Box::new(|| own(wf, Op::Insert, &halves)),
+        ),
+        ("tra-1t", Box::new(|| own(tra, Op::Insert, &[batch]))),
+        (
+            "tra-1t-half",
+            Box::new(|| own(tra, Op::Insert, &halves[..1])),
+        ),
+        (
+            "tra-2t-own-caches",
+            Box::new(|| own(tra, Op::Insert, &halves)),
+        ),
+        (
+            "lookup-wf-1t-half",
+            Box::new(|| own(wf, Op::Lookup, &halves[..1])),
+        ),
+        (
+            "lookup-wf-2t-own-caches",
+            Box::new(|| own(wf, Op::Lookup, &halves)),
+        ),
+        (
+            "lookup-tra-1t-half",
+            Box::new(|| own(tra, Op::Lookup, &halves[..1])),
+        ),
+        (
+            "lookup-tra-2t-own-caches",
+            Box::new(|| own(tra, Op::Lookup, &halves)),
+        ),
     ];
     // One untimed frame of each: pages, arenas and branch predictors warm.
     for (_, v) in &variants {
@@ -246,8 +310,11 @@ fn main() {
         batch.len(),
         west.len()
     );
-    println!("| variant | ns/record | ratio to wf-1t | allocations/record | bytes/record | minor faults/record |");
-    println!("|---|---:|---:|---:|---:|---:|");
+    println!(
+        "| variant | ns/record (wall) | ratio to wf-1t | busy ns/record of a worker's part | \
+         allocations/record | bytes/record | minor faults/record |"
+    );
+    println!("|---|---:|---:|---:|---:|---:|---:|");
     for (i, (name, _)) in variants.iter().enumerate() {
         let med = |f: fn(&Sample) -> f64| quartiles(samples[i].iter().map(f).collect()).1;
         let ratios: Vec<f64> = samples[i]
@@ -257,8 +324,9 @@ fn main() {
             .collect();
         let (lo, r, hi) = quartiles(ratios);
         println!(
-            "| {name} | {:.0} | {r:.3} ({lo:.3}–{hi:.3}) | {:.3} | {:.0} | {:.4} |",
+            "| {name} | {:.0} | {r:.3} ({lo:.3}–{hi:.3}) | {:.0} | {:.3} | {:.0} | {:.4} |",
             med(|s| s.ns),
+            med(|s| s.busy),
             med(|s| s.allocs),
             med(|s| s.bytes),
             med(|s| s.faults),
