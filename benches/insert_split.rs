@@ -11,6 +11,9 @@
 //! | `wf-2t-by-space` | two workers, split at the root's centre (`x`): below the root they share no node |
 //! | `wf-2t-own-caches` | two workers, each its half into a WF cache of its own: nothing shared |
 //! | `tra-1t`, `tra-1t-half`, `tra-2t-own-caches` | the same with TRA's plain octree (no atomics) |
+//! | `wf-1t-persistent`, `wf-2t-interleaved-persistent` | as `wf-1t` and `wf-2t-interleaved`, on two workers that live for the whole run and are parked between frames (as `orderings`' `Pair` was), meeting at a `std::sync::Barrier` |
+//! | `wf-2t-interleaved-persistent-yield` | the same, meeting at a [`YieldBarrier`] |
+//! | `lookup-*` | lookups at the batch's positions, one thread or two with caches of their own: what two threads cost each other with no allocation and nothing written |
 //!
 //! The time is the frame's wall time (first worker's start to last worker's end, both released by
 //! one barrier) per record of the batch. Criterion would time the variants one after another,
@@ -31,12 +34,12 @@ use common::*;
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
 use std::hint::black_box;
-use std::sync::Barrier;
+use std::sync::{mpsc, Arc, Barrier};
 use std::time::Instant;
 use wfic::cache::wf::Minimal;
 use wfic::cache::CacheHandle;
 use wfic::cache::{CasFailure, IrradianceCache, Sequential, WaitFree};
-use wfic::ic::Record;
+use wfic::ic::{Record, WorkerId};
 
 /// The system allocator, counting each thread's allocations and bytes in thread-local cells.
 struct Counting;
@@ -111,14 +114,15 @@ enum Op {
     Lookup,
 }
 
-/// Waits at `start_line`, applies `op` to each of `records` through `h`, and reports the span.
-fn work<H: CacheHandle>(h: &mut H, op: Op, records: &[Record], start_line: &Barrier) -> Span {
+/// Waits at the start line (`start_line()` returns once every worker is there), applies `op` to
+/// each of `records` through `h`, and reports the span.
+fn work<H: CacheHandle>(h: &mut H, op: Op, records: &[Record], start_line: &dyn Fn()) -> Span {
     let (a0, b0, f0) = (
         ALLOCS.with(Cell::get),
         BYTES.with(Cell::get),
         minor_faults(),
     );
-    start_line.wait();
+    start_line();
     let start = Instant::now();
     match op {
         Op::Insert => {
@@ -150,6 +154,8 @@ fn work<H: CacheHandle>(h: &mut H, op: Op, records: &[Record], start_line: &Barr
 struct Sample {
     ns: f64,
     busy: f64,
+    /// Microseconds between the first and the last worker's start (both released by one barrier).
+    skew_us: f64,
     allocs: f64,
     bytes: f64,
     faults: f64,
@@ -159,13 +165,16 @@ fn sample(spans: &[Span], records: usize) -> Sample {
     let start = spans.iter().map(|s| s.start).min().expect("a worker");
     let end = spans.iter().map(|s| s.end).max().expect("a worker");
     let n = records as f64;
+    let last_start = spans.iter().map(|s| s.start).max().expect("a worker");
     Sample {
         ns: (end - start).as_secs_f64() * 1e9 / n,
+        skew_us: (last_start - start).as_secs_f64() * 1e6,
         busy: spans
             .iter()
+            .filter(|s| s.records > 0)
             .map(|s| (s.end - s.start).as_secs_f64() * 1e9 / s.records.max(1) as f64)
             .sum::<f64>()
-            / spans.len() as f64,
+            / spans.iter().filter(|s| s.records > 0).count().max(1) as f64,
         allocs: spans.iter().map(|s| s.allocs).sum::<u64>() as f64 / n,
         bytes: spans.iter().map(|s| s.bytes).sum::<u64>() as f64 / n,
         faults: spans.iter().map(|s| s.faults).sum::<u64>() as f64 / n,
@@ -179,7 +188,9 @@ fn shared<C: IrradianceCache + Sync>(make: impl Fn() -> C, op: Op, parts: &[&[Re
     let frame = cache.frame();
     let start_line = Barrier::new(parts.len());
     let spans = frame.run(parts.len(), |h, id| {
-        work(h, op, parts[id.index() as usize], &start_line)
+        work(h, op, parts[id.index() as usize], &|| {
+            start_line.wait();
+        })
     });
     frame.close();
     sample(&spans, parts.iter().map(|p| p.len()).sum())
@@ -202,7 +213,11 @@ fn own<C: IrradianceCache + Send>(make: impl Fn() -> C, op: Op, parts: &[&[Recor
                 s.spawn(move || {
                     let frame = cache.frame();
                     let span = frame
-                        .run(1, |h, _| work(h, op, part, start_line))
+                        .run(1, |h, _| {
+                            work(h, op, part, &|| {
+                                start_line.wait();
+                            })
+                        })
                         .pop()
                         .expect("one worker");
                     frame.close();
@@ -216,6 +231,68 @@ fn own<C: IrradianceCache + Send>(make: impl Fn() -> C, op: Op, parts: &[&[Recor
             .collect()
     });
     sample(&spans, parts.iter().map(|p| p.len()).sum())
+}
+
+/// Two worker threads that live for the whole run and take one job a frame over a channel, as
+/// `benches/orderings.rs`'s `Pair` does (there, so that every frame runs on warm threads); the
+/// variants marked `persistent` run on these instead of on threads started for the frame.
+struct Persistent {
+    jobs: Vec<mpsc::Sender<Box<dyn FnOnce() -> Span + Send>>>,
+    done: mpsc::Receiver<Span>,
+}
+
+impl Persistent {
+    fn new() -> Self {
+        let (done_tx, done) = mpsc::channel();
+        let jobs = (0..2)
+            .map(|_| {
+                let (tx, rx) = mpsc::channel::<Box<dyn FnOnce() -> Span + Send>>();
+                let done_tx = done_tx.clone();
+                std::thread::spawn(move || {
+                    for job in rx {
+                        if done_tx.send(job()).is_err() {
+                            break;
+                        }
+                    }
+                });
+                tx
+            })
+            .collect();
+        Self { jobs, done }
+    }
+
+    /// `parts[k]` inserted by persistent worker `k` into one freshly pre-filled shared WF cache
+    /// (the low-level protocol: a handle per worker, `end_frame` once both are dropped).
+    /// With `yielding`, the workers meet at a [`YieldBarrier`] instead of a `std::sync::Barrier`.
+    fn shared(&self, parts: [&'static [Record]; 2], yielding: bool) -> Sample {
+        let w = workload();
+        let cache = Arc::new(prefilled(
+            WaitFree::<Minimal>::new(w.config, CasFailure::Adopt),
+            &w.prefill,
+        ));
+        let sleeping = Arc::new(Barrier::new(2));
+        let spinning = Arc::new(YieldBarrier::new(2));
+        for (k, jobs) in self.jobs.iter().enumerate() {
+            let (cache, part) = (Arc::clone(&cache), parts[k]);
+            let (sleeping, spinning) = (Arc::clone(&sleeping), Arc::clone(&spinning));
+            jobs.send(Box::new(move || {
+                let mut h = cache.handle(WorkerId::new(k as u32));
+                let start_line = || {
+                    if yielding {
+                        spinning.wait();
+                    } else {
+                        sleeping.wait();
+                    }
+                };
+                work(&mut h, Op::Insert, part, &start_line)
+            }))
+            .expect("worker alive");
+        }
+        let spans = [0, 1].map(|_| self.done.recv().expect("worker alive"));
+        let mut cache = Arc::into_inner(cache).expect("the workers dropped their clones");
+        cache.end_frame();
+        sample(&spans, parts.iter().map(|p| p.len()).sum())
+    }
 }
 
 fn quartiles(mut v: Vec<f64>) -> (f64, f64, f64) {
@@ -243,6 +320,12 @@ fn main() {
     let wf = || WaitFree::<Minimal>::new(w.config, CasFailure::Adopt);
     let tra = || Sequential::new(w.config);
 
+    let persistent = Persistent::new();
+    let static_halves: [&'static [Record]; 2] = [
+        &w.fresh_2t[..INSERT_BATCH_2T / 2],
+        &w.fresh_2t[INSERT_BATCH_2T / 2..INSERT_BATCH_2T],
+    ];
+    let static_batch: &'static [Record] = &w.fresh_2t[..INSERT_BATCH_2T];
     type Variant<'a> = (&'static str, Box<dyn Fn() -> Sample + 'a>);
     let variants: Vec<Variant<'_>> = vec![
         ("wf-1t", Box::new(|| shared(wf, Op::Insert, &[batch]))),
@@ -270,6 +353,18 @@ fn main() {
         (
             "tra-2t-own-caches",
             Box::new(|| own(tra, Op::Insert, &halves)),
+        ),
+        (
+            "wf-1t-persistent",
+            Box::new(|| persistent.shared([static_batch, &[]], false)),
+        ),
+        (
+            "wf-2t-interleaved-persistent",
+            Box::new(|| persistent.shared(static_halves, false)),
+        ),
+        (
+            "wf-2t-interleaved-persistent-yield",
+            Box::new(|| persistent.shared(static_halves, true)),
         ),
         (
             "lookup-wf-1t-half",
@@ -312,9 +407,9 @@ fn main() {
     );
     println!(
         "| variant | ns/record (wall) | ratio to wf-1t | busy ns/record of a worker's part | \
-         allocations/record | bytes/record | minor faults/record |"
+         start skew µs | allocations/record | bytes/record | minor faults/record |"
     );
-    println!("|---|---:|---:|---:|---:|---:|---:|");
+    println!("|---|---:|---:|---:|---:|---:|---:|---:|");
     for (i, (name, _)) in variants.iter().enumerate() {
         let med = |f: fn(&Sample) -> f64| quartiles(samples[i].iter().map(f).collect()).1;
         let ratios: Vec<f64> = samples[i]
@@ -324,9 +419,10 @@ fn main() {
             .collect();
         let (lo, r, hi) = quartiles(ratios);
         println!(
-            "| {name} | {:.0} | {r:.3} ({lo:.3}–{hi:.3}) | {:.0} | {:.3} | {:.0} | {:.4} |",
+            "| {name} | {:.0} | {r:.3} ({lo:.3}–{hi:.3}) | {:.0} | {:.0} | {:.3} | {:.0} | {:.4} |",
             med(|s| s.ns),
             med(|s| s.busy),
+            med(|s| s.skew_us),
             med(|s| s.allocs),
             med(|s| s.bytes),
             med(|s| s.faults),

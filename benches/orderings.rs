@@ -16,21 +16,20 @@
 //!   per lookup of the pair: wall time over both threads' lookups).
 //! * `orderings/insert-2t/*` — two threads inserting concurrently into a freshly pre-filled cache,
 //!   each its own half of a batch of [`INSERT_BATCH_2T`] (time per insert of the pair).
-//! * `orderings/insert-split/*` — the same batch inserted four ways (one thread; two threads on
-//!   interleaved halves; two threads split by space; two threads into caches of their own), to
-//!   separate list growth from sharing (`insert_split`).
 //!
 //! Two-thread frames run on two worker threads that live for the whole benchmark function
-//! (`Pair`), are released together by a `Barrier`, and are timed from the first worker's start to
-//! the last worker's end, each worker reading the clock itself. An insert frame is
-//! [`INSERT_BATCH_2T`] records (about 1 ms per worker), so a parked worker's wake-up (tens of µs)
-//! is a small part of it.
+//! (`Pair`), are released together by a [`YieldBarrier`], and are timed from the first worker's
+//! start to the last worker's end, each worker reading the clock itself. An insert frame is
+//! [`INSERT_BATCH_2T`] records (a few ms per worker).
 //!
 //! Why so: the first version spawned two threads per 1 024-record frame (~75 µs per worker), and two
 //! runs of the same insert code differed by up to 2x (fresh threads' first allocations, wake-ups
 //! as long as the work). Spinning start lines were worse on this 2-vCPU virtual machine: whenever
 //! both workers landed on one core, a spinner burnt the time slice its partner needed
-//! (3x outliers). After the groups, the bench prints each
+//! (3x outliers). A sleeping `std::sync::Barrier` was worse again once measured
+//! (`benches/insert_split.rs`): the early worker's wake-up put a median 0.56–2.3 ms between the two
+//! workers' starts, a fifth or more of an insert frame, counted in its wall time. The yielding
+//! start line neither sleeps nor burns a shared core. After the groups, the bench prints each
 //! policy's median over `minimal`'s, read from criterion's `estimates.json`.
 
 mod common;
@@ -40,7 +39,7 @@ use criterion::measurement::WallTime;
 use criterion::{BenchmarkGroup, Criterion, Throughput};
 use std::hint::black_box;
 use std::path::PathBuf;
-use std::sync::{mpsc, Arc, Barrier};
+use std::sync::{mpsc, Arc};
 use std::thread;
 use std::time::{Duration, Instant};
 use wfic::cache::wf::{Minimal, MinimalControl, Orderings, ReadFence, SeqCstEverywhere};
@@ -74,7 +73,7 @@ type Work<O> = Arc<dyn Fn(usize, &mut WfHandle<'_, O>) + Send + Sync>;
 /// A worker's frame: when it started and ended.
 type Done = (Instant, Instant);
 /// What a worker runs in `Pair::run`: its number and the start line, to its start and end times.
-type Job = Arc<dyn Fn(usize, &Barrier) -> Done + Send + Sync>;
+type Job = Arc<dyn Fn(usize, &YieldBarrier) -> Done + Send + Sync>;
 
 /// Two worker threads that live for a whole benchmark function, so every timed frame runs on
 /// warm threads (their allocator caches and arenas included). Spawning fresh threads for every
@@ -111,7 +110,7 @@ impl<O: Orderings> Pair<O> {
         }
     }
 
-    /// One frame: both workers take a handle, pass a `Barrier` together and run `work`;
+    /// One frame: both workers take a handle, pass a [`YieldBarrier`] together and run `work`;
     /// returns the time from the first start to the last end. `end_frame` is not timed (WF's is
     /// a sum of counters).
     ///
@@ -121,7 +120,7 @@ impl<O: Orderings> Pair<O> {
     fn frame(&self, cache: &mut Arc<WaitFree<O>>, work: &Work<O>) -> Duration {
         let shared = Arc::clone(cache);
         let work = Arc::clone(work);
-        let elapsed = self.run(Arc::new(move |k, start_line: &Barrier| {
+        let elapsed = self.run(Arc::new(move |k, start_line: &YieldBarrier| {
             let mut h = shared.handle(WorkerId::new(k as u32));
             start_line.wait();
             let start = Instant::now();
@@ -143,7 +142,7 @@ impl<O: Orderings> Pair<O> {
     /// set-up is done and returns when it started and ended. Returns the time from the first start
     /// to the last end.
     fn run(&self, job: Job) -> Duration {
-        let start_line = Arc::new(Barrier::new(2));
+        let start_line = Arc::new(YieldBarrier::new(2));
         for (k, jobs) in self.jobs.iter().enumerate() {
             let (job, start_line) = (Arc::clone(&job), Arc::clone(&start_line));
             jobs.send(Box::new(move || job(k, &start_line)))
@@ -211,83 +210,6 @@ fn insert_2t<O: Orderings>(g: &mut BenchmarkGroup<'_, WallTime>, id: &str) {
             })
         })
     });
-}
-
-/// The `insert-split` group: the same [`INSERT_BATCH_2T`] fresh records into a freshly pre-filled
-/// cache, split four ways, to tell what a second inserting thread costs apart (list growth and
-/// allocation, sharing of nodes and list heads, the machine):
-///
-/// * `1t` — worker 0 inserts the whole batch, worker 1 waits (the single-thread baseline: every
-///   list grows and every segment is allocated as in the two-thread runs, nothing is shared);
-/// * `2t-interleaved` — each worker inserts its half, the halves drawn from the same random
-///   stream (what `insert-2t` does): both workers append to the same lists and race for the same
-///   children;
-/// * `2t-by-space` — worker 0 inserts the batch's records with `x` below the root's centre, worker
-///   1 the others: below the root they share no node, so no list head or child pointer is written
-///   by both;
-/// * `2t-own-caches` — each worker inserts its half into a cache of its own (both pre-filled):
-///   nothing is shared at all, so the remaining cost over `1t` is the machine's and the
-///   allocator's.
-///
-/// Time is per insert of the whole batch (wall time of the frame / records).
-fn insert_split(c: &mut Criterion) {
-    let w = workload();
-    let batch: &'static [Record] = &w.fresh_2t[..INSERT_BATCH_2T];
-    let center = w.config.root().center.x;
-    let (west, east): (Vec<Record>, Vec<Record>) =
-        batch.iter().partition(|r| r.position.x < center);
-    let by_space: &'static [Vec<Record>; 2] = Box::leak(Box::new([west, east]));
-    let half = INSERT_BATCH_2T / 2;
-    let halves: &'static [&'static [Record]; 2] =
-        Box::leak(Box::new([&batch[..half], &batch[half..]]));
-    let mut g = group(c, "insert-split");
-    let pair = Pair::<Minimal>::new();
-    let shared = |g: &mut BenchmarkGroup<'_, WallTime>, id: &str, parts: [&'static [Record]; 2]| {
-        g.bench_function(id, |b| {
-            b.iter_custom(|iters| {
-                whole_batches(iters, || {
-                    let mut cache = Arc::new(prefilled(make::<Minimal>(), &w.prefill));
-                    let work: Work<Minimal> = Arc::new(move |k, h| {
-                        for r in parts[k] {
-                            let _ = black_box(h.insert(black_box(*r)));
-                        }
-                    });
-                    pair.frame(&mut cache, &work)
-                })
-            })
-        });
-    };
-    shared(&mut g, "1t", [batch, &[]]);
-    shared(&mut g, "2t-interleaved", *halves);
-    shared(&mut g, "2t-by-space", [&by_space[0], &by_space[1]]);
-    g.bench_function("2t-own-caches", |b| {
-        b.iter_custom(|iters| {
-            whole_batches(iters, || {
-                let caches = Arc::new([0, 1].map(|_| prefilled(make::<Minimal>(), &w.prefill)));
-                let c = Arc::clone(&caches);
-                let t = pair.run(Arc::new(move |k, start_line: &Barrier| {
-                    let mut h = c[k].handle(WorkerId::new(0));
-                    start_line.wait();
-                    let start = Instant::now();
-                    for r in halves[k] {
-                        let _ = black_box(h.insert(black_box(*r)));
-                    }
-                    (start, Instant::now())
-                }));
-                drop(caches);
-                t
-            })
-        })
-    });
-    g.finish();
-}
-
-/// `iters` inserts for criterion's `iter_custom`, as whole batches of [`INSERT_BATCH_2T`] (the
-/// split must keep its halves): runs enough batches and scales their time to `iters` inserts.
-fn whole_batches(iters: u64, mut batch: impl FnMut() -> Duration) -> Duration {
-    let batches = iters.div_ceil(INSERT_BATCH_2T as u64);
-    let total: Duration = (0..batches).map(|_| batch()).sum();
-    total.mul_f64(iters as f64 / (batches * INSERT_BATCH_2T as u64) as f64)
 }
 
 fn group<'a>(c: &'a mut Criterion, name: &str) -> BenchmarkGroup<'a, WallTime> {
@@ -414,7 +336,6 @@ fn print_ratios() {
 fn main() {
     let mut c = Criterion::default().configure_from_args();
     orderings(&mut c);
-    insert_split(&mut c);
     c.final_summary();
     print_ratios();
 }
