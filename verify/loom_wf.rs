@@ -182,5 +182,10 @@ fn a_full_list_refuses_the_next_insert() {
         }
         let refused = h.insert(loom_common::root_record(0.5));
         assert_eq!(refused, Err(InsertError::ListFull));
+        // The refused insert still reserved an index, so the list's head now counts one slot more
+        // than its segments hold: a scan must stop at the last segment (not index the directory
+        // past it) and still find all fourteen records.
+        let found = h.lookup(glam::Vec3::new(2.0, 2.0, 2.0), glam::Vec3::Z);
+        assert_eq!(found.map(|f| f.records), Some(14), "{found:?}");
     });
 }
