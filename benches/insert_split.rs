@@ -181,16 +181,31 @@ fn sample(spans: &[Span], records: usize) -> Sample {
     }
 }
 
-/// `parts[k]` inserted by worker `k`, all workers into one freshly pre-filled cache.
+/// `parts[k]` inserted by worker `k`, all workers into one freshly pre-filled cache. Workers are
+/// threads started for the frame, each taking its handle from the frame (std's scoped threads
+/// rather than `Frame::run`, so the bench also builds under the model checkers' features).
 fn shared<C: IrradianceCache + Sync>(make: impl Fn() -> C, op: Op, parts: &[&[Record]]) -> Sample {
     let w = workload();
     let mut cache = prefilled(make(), &w.prefill);
     let frame = cache.frame();
     let start_line = Barrier::new(parts.len());
-    let spans = frame.run(parts.len(), |h, id| {
-        work(h, op, parts[id.index() as usize], &|| {
-            start_line.wait();
-        })
+    let spans: Vec<Span> = std::thread::scope(|s| {
+        let workers: Vec<_> = parts
+            .iter()
+            .map(|&part| {
+                let (frame, start_line) = (&frame, &start_line);
+                s.spawn(move || {
+                    let mut h = frame.handle();
+                    work(&mut h, op, part, &|| {
+                        start_line.wait();
+                    })
+                })
+            })
+            .collect();
+        workers
+            .into_iter()
+            .map(|t| t.join().expect("worker"))
+            .collect()
     });
     frame.close();
     sample(&spans, parts.iter().map(|p| p.len()).sum())
@@ -208,18 +223,15 @@ fn own<C: IrradianceCache + Send>(make: impl Fn() -> C, op: Op, parts: &[&[Recor
         let workers: Vec<_> = caches
             .iter_mut()
             .zip(parts)
-            .map(|(cache, part)| {
+            .map(|(cache, &part)| {
                 let start_line = &start_line;
                 s.spawn(move || {
                     let frame = cache.frame();
-                    let span = frame
-                        .run(1, |h, _| {
-                            work(h, op, part, &|| {
-                                start_line.wait();
-                            })
-                        })
-                        .pop()
-                        .expect("one worker");
+                    let mut h = frame.handle();
+                    let span = work(&mut h, op, part, &|| {
+                        start_line.wait();
+                    });
+                    drop(h);
                     frame.close();
                     span
                 })
