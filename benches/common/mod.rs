@@ -418,9 +418,9 @@ pub fn in_frames(iters: u64, frame: usize, mut timed: impl FnMut(usize) -> Durat
 /// core of its own keeps running (there is nothing to yield to), so it leaves the line within
 /// microseconds of the last arrival; one that shares a core with its partner hands the core over
 /// instead of burning the partner's time slice (which a pure spin would). `std::sync::Barrier`
-/// puts the early worker to sleep, and waking a sleeping thread on this virtual machine took a
-/// median 0.56 ms (`benches/insert_split.rs`, workers parked between frames), about a fifth of a
-/// two-thread insert frame.
+/// puts the early worker to sleep, and waking a sleeping thread on this virtual machine put a
+/// median 0.56–2.3 ms between the two workers' starts (`benches/insert_split.rs`, workers parked
+/// between frames), a fifth to a half of a two-thread insert frame.
 pub struct YieldBarrier {
     arrived: std::sync::atomic::AtomicUsize,
     workers: usize,
