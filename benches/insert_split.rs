@@ -323,9 +323,9 @@ fn main() {
         .map(|n| n.parse().expect("--rounds N"))
         .unwrap_or(if test { 2 } else { 101 });
     let w = workload();
-    let batch: &[Record] = &w.fresh_2t[..INSERT_BATCH_2T];
+    let batch: &'static [Record] = &w.fresh_2t[..INSERT_BATCH_2T];
     let half = batch.len() / 2;
-    let halves: [&[Record]; 2] = [&batch[..half], &batch[half..]];
+    let halves: [&'static [Record]; 2] = [&batch[..half], &batch[half..]];
     let centre = w.config.root().center.x;
     let (west, east): (Vec<Record>, Vec<Record>) =
         batch.iter().partition(|r| r.position.x < centre);
@@ -333,11 +333,6 @@ fn main() {
     let tra = || Sequential::new(w.config);
 
     let persistent = Persistent::new();
-    let static_halves: [&'static [Record]; 2] = [
-        &w.fresh_2t[..INSERT_BATCH_2T / 2],
-        &w.fresh_2t[INSERT_BATCH_2T / 2..INSERT_BATCH_2T],
-    ];
-    let static_batch: &'static [Record] = &w.fresh_2t[..INSERT_BATCH_2T];
     type Variant<'a> = (&'static str, Box<dyn Fn() -> Sample + 'a>);
     let variants: Vec<Variant<'_>> = vec![
         ("wf-1t", Box::new(|| shared(wf, Op::Insert, &[batch]))),
@@ -368,15 +363,15 @@ fn main() {
         ),
         (
             "wf-1t-persistent",
-            Box::new(|| persistent.shared([static_batch, &[]], false)),
+            Box::new(|| persistent.shared([batch, &[]], false)),
         ),
         (
             "wf-2t-interleaved-persistent",
-            Box::new(|| persistent.shared(static_halves, false)),
+            Box::new(|| persistent.shared(halves, false)),
         ),
         (
             "wf-2t-interleaved-persistent-yield",
-            Box::new(|| persistent.shared(static_halves, true)),
+            Box::new(|| persistent.shared(halves, true)),
         ),
         (
             "lookup-wf-1t-half",
