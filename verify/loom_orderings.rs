@@ -110,6 +110,21 @@ const SEGMENT_CAS_FAILURE: usize = Site::SegmentCasFailure as usize;
 const CHILD_READ: usize = Site::ChildRead as usize;
 const CHILD_PUBLISH: usize = Site::ChildPublish as usize;
 const CHILD_CAS_FAILURE: usize = Site::ChildCasFailure as usize;
+const MASK_SET: usize = Site::MaskSet as usize;
+const MASK_READ: usize = Site::MaskRead as usize;
+
+/// Asserts that `message` is the cache's own check in `Node::follow` (mod.rs), which a weakened
+/// mask site trips: the lookup saw a bit, and its Relaxed load of the child's pointer, no longer
+/// ordered after the compare-and-swap that published it, returned the null the node was built
+/// with. The check runs under the model checkers (and in debug builds); the shipped release build
+/// rests on the argument the study proves.
+fn assert_mask_race(what: &str, message: &str) {
+    eprintln!("{what}: {}", message.trim());
+    assert!(
+        message.contains("a lookup saw a mask bit without its published child"),
+        "{what}: expected the mask check in Node::follow, got: {message}"
+    );
+}
 
 // SlotPublish and SlotRead: the reader reads a slot's record cell (list.rs) that it saw ready, but
 // the write of the record is not ordered before the read.
@@ -210,13 +225,15 @@ fn relaxed_segment_cas_failure_is_caught() {
     );
 }
 
-// ChildRead and ChildPublish: the lookup walks into a published node and loads its list's head
-// (list.rs), whose creation it is not ordered after.
+// ChildRead and ChildPublish order an *insert* after the construction of a child another insert
+// published: a lookup no longer needs them, since it follows a child only under its mask bit,
+// whose Release/Acquire pair orders it (MaskSet and MaskRead below). An insert that walks into a
+// published node loads its list's head (list.rs) to push, whose creation it is not ordered after.
 
 #[test]
 fn relaxed_child_read_is_caught() {
     let m = expect_failure(|| {
-        insert_races_lookup_through_a_new_child::<Weakened<CHILD_READ>>();
+        an_insert_below_a_child_not_yet_marked_is_found::<Weakened<CHILD_READ>>();
     });
     assert_race("ChildRead", &m, Race::LoadOfUnorderedAtomic, Made::InList);
 }
@@ -224,7 +241,7 @@ fn relaxed_child_read_is_caught() {
 #[test]
 fn relaxed_child_publish_is_caught() {
     let m = expect_failure(|| {
-        insert_races_lookup_through_a_new_child::<Weakened<CHILD_PUBLISH>>();
+        an_insert_below_a_child_not_yet_marked_is_found::<Weakened<CHILD_PUBLISH>>();
     });
     assert_race(
         "ChildPublish",
@@ -234,30 +251,10 @@ fn relaxed_child_publish_is_caught() {
     );
 }
 
-/// Below depth 1 both child sites are caught by the lookup racing a three-node chain (the head of
-/// the first node's list, as at depth 1) and by the deep child race, where a different access
-/// trips: the loser walking down the winner's depth-1 node loads one of its child pointers
-/// (`AtomicPtr::new` in `Node::new`, mod.rs).
+/// Below depth 1, the deep child race: the loser walking down the winner's depth-1 node loads one
+/// of its child pointers (`AtomicPtr::new` in `Node::new`, mod.rs).
 #[test]
 fn relaxed_child_sites_are_caught_below_depth_1() {
-    let m = expect_failure(|| {
-        lookup_races_a_deep_chain::<Weakened<CHILD_READ>>();
-    });
-    assert_race(
-        "ChildRead, deep chain",
-        &m,
-        Race::LoadOfUnorderedAtomic,
-        Made::InList,
-    );
-    let m = expect_failure(|| {
-        lookup_races_a_deep_chain::<Weakened<CHILD_PUBLISH>>();
-    });
-    assert_race(
-        "ChildPublish, deep chain",
-        &m,
-        Race::LoadOfUnorderedAtomic,
-        Made::InList,
-    );
     let m = expect_failure(|| {
         two_deep_inserts_race_for_a_shared_child::<Weakened<CHILD_READ>>(CasFailure::Adopt);
     });
@@ -276,6 +273,39 @@ fn relaxed_child_sites_are_caught_below_depth_1() {
         Race::LoadOfUnorderedAtomic,
         Made::InNode,
     );
+}
+
+// MaskSet and MaskRead: a lookup that sees a child's bit follows the child's pointer with a
+// Relaxed load and no null check (`Node::follow`). Weakened, the bit arrives without the
+// publication it was set after.
+
+#[test]
+fn relaxed_mask_set_is_caught() {
+    let m = expect_failure(|| {
+        insert_races_lookup_through_a_new_child::<Weakened<MASK_SET>>();
+    });
+    assert_mask_race("MaskSet", &m);
+}
+
+#[test]
+fn relaxed_mask_read_is_caught() {
+    let m = expect_failure(|| {
+        insert_races_lookup_through_a_new_child::<Weakened<MASK_READ>>();
+    });
+    assert_mask_race("MaskRead", &m);
+}
+
+/// Below depth 1: the lookup racing a three-node chain.
+#[test]
+fn relaxed_mask_sites_are_caught_below_depth_1() {
+    let m = expect_failure(|| {
+        lookup_races_a_deep_chain::<Weakened<MASK_SET>>();
+    });
+    assert_mask_race("MaskSet, deep chain", &m);
+    let m = expect_failure(|| {
+        lookup_races_a_deep_chain::<Weakened<MASK_READ>>();
+    });
+    assert_mask_race("MaskRead, deep chain", &m);
 }
 
 /// ChildCasFailure with `Adopt`: the loser goes on into the winner's child, which its failed

@@ -187,7 +187,8 @@ pub struct WorkerStats {
     /// in `lookups` and `hits`.
     pub max_lookup_nodes: u32,
     /// Most records one lookup examined: every record read from the lists of the nodes it
-    /// visited, valid for the query or not.
+    /// visited, valid for the query or not (for WF, every slot whose ready flag it loaded: a
+    /// slot another worker has reserved but not yet written counts too).
     pub max_lookup_records: u32,
     /// Nodes visited by every lookup and `valid_records` call, summed. One traversal's count is
     /// the difference across it.

@@ -330,8 +330,10 @@ impl<O: Orderings> RecordList<O> {
     }
 
     /// Calls `f` with every published record whose key `admit` passes, in slot order; returns
-    /// the number of published slots read (keys examined). Slots that are reserved but not yet
-    /// written, or whose segment is not yet installed, are skipped.
+    /// the number of slots read (their flags loaded: the keys examined, and any slot reserved but
+    /// not yet written, which only a concurrent insert leaves; counting it keeps the scan's loop
+    /// free of a counter). Slots that are reserved but not yet written, or whose segment is not
+    /// yet installed, are skipped.
     #[inline]
     pub(crate) fn scan(&self, admit: impl Fn(&Key) -> bool, f: &mut impl FnMut(&Record)) -> u32 {
         // Relaxed (HeadRead): the head only bounds the scan. A stale value merely skips records
@@ -350,7 +352,8 @@ impl<O: Orderings> RecordList<O> {
         // The common case, a list of at most four records: its first segment alone.
         if reserved <= segment_len(0) {
             // SAFETY: `first` is the live first segment and `reserved` is within it.
-            return unsafe { scan_segment::<O>(first, 0, reserved, &admit, f) };
+            unsafe { scan_segment::<O>(first, 0, reserved, &admit, f) };
+            return reserved as u32;
         }
         // SAFETY: `first` is the list's live first segment.
         let pointer = unsafe { &*directory_pointer(first) };
@@ -375,7 +378,8 @@ impl<O: Orderings> RecordList<O> {
             };
             if !base.is_null() {
                 // SAFETY: `base` is live segment `segment` and `len` is within it.
-                examined += unsafe { scan_segment::<O>(base, segment, len, &admit, f) };
+                unsafe { scan_segment::<O>(base, segment, len, &admit, f) };
+                examined += len as u32;
             }
             remaining -= len;
             segment += 1;
@@ -419,7 +423,7 @@ fn publish_once<O: Orderings, T>(
 }
 
 /// Reads the first `len` slots of the segment at `base` (segment `segment`): calls `f` with each
-/// published record whose key `admit` passes; returns the number of published slots read.
+/// published record whose key `admit` passes.
 ///
 /// SAFETY: `base` must be a live segment `segment` of a list that outlives the call, and `len` at
 /// most its length.
@@ -430,18 +434,17 @@ unsafe fn scan_segment<O: Orderings>(
     len: usize,
     admit: &impl Fn(&Key) -> bool,
     f: &mut impl FnMut(&Record),
-) -> u32 {
-    let mut examined = 0;
-    for offset in 0..len {
-        // SAFETY: `offset < len <= segment_len(segment)` and the segment is live (the caller's
-        // guarantee).
-        let hot = unsafe { &*base.add(offset) };
+) {
+    // SAFETY: `len <= segment_len(segment)` hot halves lie at `base`, initialised by
+    // `new_segment` and live as long as the list (the caller's guarantee); they are only ever
+    // accessed through `&` (the key through its `UnsafeCell`, the flag atomically).
+    let hots = unsafe { std::slice::from_raw_parts(base.cast_const(), len) };
+    for hot in hots {
         // Acquire (SlotRead): pairs with the Release store in `push_keyed`; seeing `true` makes
         // the key and the record written before that store visible.
         if O::PUBLISH_SLOTS && !hot.ready.load(ord::<O>(Site::SlotRead)) {
             continue;
         }
-        examined += 1;
         let pass = hot.key.with(|cell| {
             // SAFETY: the flag was seen set, so the key was fully written and is never written
             // again (with `PUBLISH_SLOTS` off — loom's paper-literal model — this is exactly the
@@ -449,15 +452,18 @@ unsafe fn scan_segment<O: Orderings>(
             admit(unsafe { (*cell).assume_init_ref() })
         });
         if pass {
-            // SAFETY: same segment and offset as `hot`.
-            let cold = unsafe { &*cold(base, segment, offset) };
+            // SAFETY: `hot` is an element of `hots`, which starts at `base`: the offset is its
+            // index, below `len`. Same segment and offset as `hot`.
+            let cold = unsafe {
+                let offset = ptr::from_ref(hot).offset_from(base) as usize;
+                &*cold(base, segment, offset)
+            };
             cold.record.with(|cell| {
                 // SAFETY: as for the key, under the same flag.
                 f(unsafe { (*cell).assume_init_ref() })
             });
         }
     }
-    examined
 }
 
 /// Allocates segment `segment` with every slot unwritten.

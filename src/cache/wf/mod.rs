@@ -18,10 +18,12 @@
 //!     lock-free octree.
 //! * **Lookup** reads masks, child pointers and published slots only: no read-modify-write, no
 //!   fence, no store (unless the [`ReadFence`] policy asks for the paper's avoided barrier).
-//! * **The mask** is a hint with one rule: no record is stored below a child whose bit is clear.
-//!   The publisher of a child sets its bit right after the compare-and-swap, and any insert that
-//!   walks into a child sets it first if it does not see it set (one `fetch_or`, never retried), so
-//!   a lookup that happens-after an insert sees every bit on the record's path.
+//! * **The mask** has two rules: no record is stored below a child whose bit is clear, and no bit
+//!   is set before its child is published. The publisher of a child sets its bit right after the
+//!   compare-and-swap, and any insert that walks into a child sets it first if it does not see it
+//!   set (one `fetch_or`, never retried), so a lookup that happens-after an insert sees every bit
+//!   on the record's path. The `fetch_or` is Release and the lookup's load of the mask Acquire, so
+//!   a bit a lookup sees carries its child: the lookup follows the pointer without a null check.
 //!
 //! **Wait-freedom, exactly.** No operation loops on a condition another thread controls: every
 //! loop is over the tree's levels, a node's eight children, or a list's slots, and no
@@ -127,7 +129,35 @@ impl<O: Orderings> Node<O> {
         }
     }
 
-    /// The child in `octant`, if published.
+    /// The child in `octant`, whose bit a lookup saw in this node's mask with an Acquire load
+    /// (`WaitFree::walk_node`): published, so no null check.
+    ///
+    /// # Panics
+    /// Under the model checkers (and in debug builds), if the pointer is null: a mask bit seen
+    /// without its child, which only a weakened ordering allows (the ordering study).
+    #[inline]
+    fn follow(&self, octant: Octant) -> &Node<O> {
+        // Relaxed (ChildFollow): the Acquire load of the mask that showed this octant's bit
+        // synchronised with a Release `fetch_or` made after the compare-and-swap that published
+        // the child (by its publisher, or by an insert that loaded the child with Acquire), or
+        // came with this node's own construction (`build_path`). So the publication
+        // happens-before this load, which (write-read coherence, and the pointer never changes
+        // again) returns the child, and the child's construction is visible.
+        let child = self.children[octant.index()].load(ord::<O>(Site::ChildFollow));
+        #[cfg(checker)]
+        assert!(
+            !child.is_null(),
+            "a lookup saw a mask bit without its published child"
+        );
+        debug_assert!(!child.is_null(), "a mask bit without its child");
+        // SAFETY: non-null by the argument above (checked under the model checkers, whose ordering
+        // study weakens the sites it rests on); from `Box::into_raw` in `graft` or `build_path`,
+        // published once and freed only when the cache (`&mut`) is dropped, which `&self` rules
+        // out.
+        unsafe { &*child }
+    }
+
+    /// The child in `octant`, if published (an insert's walk, which has no mask bit to rely on).
     #[inline]
     fn child(&self, octant: Octant) -> Option<&Node<O>> {
         // Acquire (ChildRead): pairs with the Release compare-and-swap in `graft`; everything the
@@ -146,14 +176,18 @@ impl<O: Orderings> Node<O> {
     /// that lookups may skip: a lookup that happens-after the insert loads a mask holding the bit.
     #[inline]
     fn mark(&self, octant: Octant) {
-        // Relaxed (MaskRead): only saves the read-modify-write when the bit is already set. If
+        // Relaxed (MaskTest): only saves the read-modify-write when the bit is already set. If
         // this load sees the bit, any load that happens-after it sees the bit too (read-read
-        // coherence, and bits are never cleared), so skipping the `fetch_or` loses nothing.
-        if self.occupied.load(ord::<O>(Site::MaskRead)) & octant.bit() == 0 {
-            // Relaxed (MaskSet): the mask publishes nothing. A lookup dereferences a child only
-            // through the pointer's own Acquire load; the bit only tells it which pointers to load.
-            // What a lookup must see is the bit set by an insert that happens-before it, and
-            // write-read coherence gives that for any ordering.
+        // coherence, and bits are never cleared), and whoever set it had seen the child, so
+        // skipping the `fetch_or` loses nothing; this insert reads nothing through the mask.
+        if self.occupied.load(ord::<O>(Site::MaskTest)) & octant.bit() == 0 {
+            // Release (MaskSet): publishes the child with its bit. This thread saw the child
+            // published (its own compare-and-swap, or an Acquire load of the pointer or of the
+            // failed compare-and-swap), so a lookup whose Acquire load sees the bit happens-after
+            // that publication and follows the pointer with no null check (`Node::follow`). Every
+            // later write to the mask is a `fetch_or` too, so a lookup that reads a later value
+            // still synchronises with this one (a release sequence). What a lookup must see, the
+            // bit set by an insert that happens-before it, write-read coherence gives.
             self.occupied
                 .fetch_or(octant.bit(), ord::<O>(Site::MaskSet));
         }
@@ -351,17 +385,18 @@ impl<O: Orderings> WaitFree<O> {
     ) {
         work.nodes += 1;
         work.records += node.records.scan(admit, f);
-        // Relaxed (MaskRead): which child pointers to load; each is then loaded with Acquire
-        // (`Node::child`) before anything is read through it, and a null one is skipped. A child
-        // whose bit this load misses was published without any edge to this lookup, or its bit
-        // was set by an insert that does not happen-before it (see `Node::mark`).
+        // Acquire (MaskRead): pairs with the Release `fetch_or`s of `Node::mark`, each made
+        // after its thread saw the child published, so every bit seen here comes with its child's
+        // pointer and everything built before that child's publication (`Node::follow`). A bit
+        // from the private store in `build_path` came with the node itself, which this lookup
+        // reached through such an edge. A child whose bit this load misses was published without
+        // any edge to this lookup, or its bit was set by an insert that does not happen-before it.
         let occupied = node.occupied.load(ord::<O>(Site::MaskRead));
         if occupied != 0 {
             let mask = occupied & self.config.geometry().children_holding(&cell, point);
             for octant in Octant::in_mask(mask) {
-                if let Some(child) = node.child(octant) {
-                    self.walk_node(child, cell.child(octant), point, admit, f, work);
-                }
+                let child = node.follow(octant);
+                self.walk_node(child, cell.child(octant), point, admit, f, work);
             }
         }
     }

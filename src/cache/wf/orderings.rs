@@ -35,11 +35,16 @@ pub enum Site {
     MaskSet,
     /// Load of a node's occupancy mask by a lookup (which child pointers to load at all).
     MaskRead,
+    /// Load of a node's occupancy mask by an insert about to mark a child (skips the `fetch_or`
+    /// when the bit is already set).
+    MaskTest,
+    /// Load of a child pointer by a lookup, after its bit was seen in the mask.
+    ChildFollow,
 }
 
 impl Site {
     /// How many sites there are.
-    pub const COUNT: usize = 12;
+    pub const COUNT: usize = 14;
 
     /// Every site, in index order.
     pub const ALL: [Site; Site::COUNT] = [
@@ -55,6 +60,8 @@ impl Site {
         Site::ChildCasFailure,
         Site::MaskSet,
         Site::MaskRead,
+        Site::MaskTest,
+        Site::ChildFollow,
     ];
 }
 
@@ -86,7 +93,9 @@ pub(crate) const fn ord<O: Orderings>(site: Site) -> Ordering {
 }
 
 /// The minimal sound policy: Release on every publication, Acquire on every load that is followed
-/// by a read of what it points to, Relaxed where only atomicity is needed. The argument for each
+/// by a read of what it points to (unless an earlier Acquire load already orders that read: a
+/// lookup's child pointer, under the Acquire load of its bit), Relaxed where only atomicity is
+/// needed. The argument for each
 /// site is at the site, in `list.rs` and `mod.rs`.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct Minimal;
@@ -122,8 +131,10 @@ const MINIMAL: [Ordering; Site::COUNT] = [
     Acquire, // ChildRead
     Release, // ChildPublish
     Acquire, // ChildCasFailure
-    Relaxed, // MaskSet
-    Relaxed, // MaskRead
+    Release, // MaskSet
+    Acquire, // MaskRead
+    Relaxed, // MaskTest
+    Relaxed, // ChildFollow
 ];
 
 impl Orderings for Minimal {
@@ -211,5 +222,7 @@ mod tests {
         assert_eq!(ord::<Minimal>(Site::Reserve), Relaxed);
         assert_eq!(ord::<Minimal>(Site::SlotPublish), Release);
         assert_eq!(ord::<SeqCstEverywhere>(Site::HeadRead), SeqCst);
+        assert_eq!(ord::<Minimal>(Site::MaskSet), Release);
+        assert_eq!(ord::<Minimal>(Site::ChildFollow), Relaxed);
     }
 }
