@@ -275,6 +275,37 @@ fn relaxed_child_sites_are_caught_below_depth_1() {
     );
 }
 
+/// A lookup is ordered after a child's construction by the mask alone: with either child site
+/// weakened, the lookup models pass, both outcomes of the race reached (the record found, and the
+/// lookup that ran first finding nothing).
+#[test]
+fn lookups_need_neither_child_site() {
+    for (what, outcomes) in [
+        (
+            "ChildRead",
+            model_outcomes(insert_races_lookup_through_a_new_child::<Weakened<CHILD_READ>>),
+        ),
+        (
+            "ChildPublish",
+            model_outcomes(insert_races_lookup_through_a_new_child::<Weakened<CHILD_PUBLISH>>),
+        ),
+        (
+            "ChildRead, deep chain",
+            model_outcomes(lookup_races_a_deep_chain::<Weakened<CHILD_READ>>),
+        ),
+        (
+            "ChildPublish, deep chain",
+            model_outcomes(lookup_races_a_deep_chain::<Weakened<CHILD_PUBLISH>>),
+        ),
+    ] {
+        let (found, missed) = outcomes;
+        assert!(
+            found > 0 && missed > 0,
+            "{what}: both outcomes of the race must be explored"
+        );
+    }
+}
+
 // MaskSet and MaskRead: a lookup that sees a child's bit follows the child's pointer with a
 // Relaxed load and no null check (`Node::follow`). Weakened, the bit arrives without the
 // publication it was set after.

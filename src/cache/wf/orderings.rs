@@ -95,8 +95,7 @@ pub(crate) const fn ord<O: Orderings>(site: Site) -> Ordering {
 /// The minimal sound policy: Release on every publication, Acquire on every load that is followed
 /// by a read of what it points to (unless an earlier Acquire load already orders that read: a
 /// lookup's child pointer, under the Acquire load of its bit), Relaxed where only atomicity is
-/// needed. The argument for each
-/// site is at the site, in `list.rs` and `mod.rs`.
+/// needed. The argument for each site is at the site, in `list.rs` and `mod.rs`.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct Minimal;
 
