@@ -30,6 +30,14 @@ enum Command {
         #[command(subcommand)]
         what: wfic::experiment::cli::ReproduceCommand,
     },
+    /// Compare wfic with another renderer on the same scene (`compare radiance`).
+    Compare {
+        #[command(subcommand)]
+        what: wfic::experiment::cli::CompareCommand,
+    },
+    /// List the built-in scenes: triangles, lights, whether each is the real model or a
+    /// stand-in, and where it comes from.
+    Scenes,
     /// Fill every cache scheme from several threads with a synthetic renderer-like workload and
     /// print what each did (time, samples, hits, sharing, overheads).
     Demo(DemoArgs),
@@ -65,6 +73,8 @@ pub fn main() -> ExitCode {
     let result = match cli.command {
         Command::Demo(args) => demo(&args),
         Command::Reproduce { what } => wfic::experiment::cli::run(what),
+        Command::Compare { what } => wfic::experiment::cli::run_compare(what),
+        Command::Scenes => list_scenes(),
         Command::Render(args) => {
             return match wfic::render::cli::run_render(args) {
                 Ok(()) => ExitCode::SUCCESS,
@@ -82,6 +92,30 @@ pub fn main() -> ExitCode {
             ExitCode::from(2)
         }
     }
+}
+
+/// `wfic scenes`: builds each built-in scene and prints what it is.
+fn list_scenes() -> Result<(), String> {
+    use wfic::render::scenes;
+    println!(
+        "{:<11} {:>9} {:>7} {:<9} origin",
+        "scene", "triangles", "lights", "source"
+    );
+    for info in scenes::INFO {
+        let scene = scenes::by_name(info.name)
+            .expect("every INFO entry is a built-in scene")
+            .map_err(|e| format!("{}: {e}", info.name))?;
+        println!(
+            "{:<11} {:>9} {:>7} {:<9} {}",
+            info.name,
+            scene.triangle_count(),
+            scene.light_count(),
+            info.source.name(),
+            info.origin
+        );
+    }
+    println!("(scenes/README.md: each model's origin, credit or licence, and its conversion)");
+    Ok(())
 }
 
 fn demo(args: &DemoArgs) -> Result<(), String> {

@@ -267,3 +267,101 @@ pub fn run(command: ReproduceCommand) -> Result<(), String> {
         }
     }
 }
+
+/// What `wfic compare` compares wfic with.
+#[derive(Clone, Debug, clap::Subcommand)]
+pub enum CompareCommand {
+    /// Radiance (`rtrace -ab 1`, Ward's own irradiance cache) and wfic (`wf`) on the same
+    /// scene, camera and settings, each against its own brute-force image; then the wfic setting
+    /// at or below Radiance's error and the time ratio there. Writes radiance.md, radiance.csv
+    /// and SCENE-side-by-side.png. Needs Radiance's binaries (`pip install pyradiance`).
+    Radiance(RadianceArgs),
+}
+
+/// Arguments of `wfic compare radiance`.
+#[derive(Clone, Debug, clap::Args)]
+pub struct RadianceArgs {
+    /// Built-in scenes, comma-separated (`all`: every one).
+    #[arg(long, value_delimiter = ',', required = true)]
+    pub scene: Vec<String>,
+    /// A smoke run: 128 x 128, 256 rays per record, a short sweep.
+    #[arg(long)]
+    pub quick: bool,
+    /// Output folder.
+    #[arg(long, default_value = "results/radiance")]
+    pub out_dir: std::path::PathBuf,
+    /// Image width (default 512, quick 128).
+    #[arg(long)]
+    pub width: Option<u32>,
+    /// Image height (default: the width).
+    #[arg(long)]
+    pub height: Option<u32>,
+    /// Rays per record, `-ad` (default 1024, quick 256).
+    #[arg(long)]
+    pub rays_per_record: Option<u32>,
+    /// Ward's accuracy, `-aa`.
+    #[arg(long)]
+    pub accuracy: Option<f32>,
+    /// Radiance's ambient resolution, `-ar`.
+    #[arg(long)]
+    pub resolution: Option<u32>,
+    /// Keep the exported scene, rays and ambient files (DIR/work-SCENE/).
+    #[arg(long)]
+    pub keep_work: bool,
+}
+
+/// Runs `wfic compare ...`.
+pub fn run_compare(command: CompareCommand) -> Result<(), String> {
+    match command {
+        CompareCommand::Radiance(a) => {
+            let scenes: Vec<String> = if a.scene.iter().any(|s| s == "all") {
+                crate::render::scenes::NAMES
+                    .iter()
+                    .map(|s| s.to_string())
+                    .collect()
+            } else {
+                a.scene.clone()
+            };
+            for s in &scenes {
+                if crate::render::scenes::info(s).is_none() {
+                    return Err(format!(
+                        "unknown scene `{s}` (expected one of: {}, or all)",
+                        crate::render::scenes::NAMES.join(", ")
+                    ));
+                }
+            }
+            let mut config = if a.quick {
+                super::radiance::RadianceConfig::quick(scenes)
+            } else {
+                super::radiance::RadianceConfig::full(scenes)
+            };
+            if let Some(w) = a.width {
+                config.size = size(w, a.height)?;
+            } else if let Some(h) = a.height {
+                config.size = size(config.size.0, Some(h))?;
+            }
+            if let Some(n) = a.rays_per_record {
+                if n < 16 {
+                    return Err("--rays-per-record must be at least 16".to_owned());
+                }
+                config.rays = n;
+            }
+            if let Some(acc) = a.accuracy {
+                if !(acc > 0.0 && acc <= 2.0) {
+                    return Err(format!("--accuracy {acc} is not in (0, 2]"));
+                }
+                config.accuracy = acc;
+                config.sweep_accuracies[0] = acc;
+            }
+            if let Some(r) = a.resolution {
+                if r == 0 {
+                    return Err("--resolution must be at least 1".to_owned());
+                }
+                config.resolution = r;
+            }
+            config.keep_work = a.keep_work;
+            let command: Vec<String> = std::env::args().collect();
+            super::radiance::run(&config, &a.out_dir, &command.join(" "))
+        }
+    }
+}

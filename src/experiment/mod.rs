@@ -11,6 +11,7 @@ pub mod animation;
 pub mod cli;
 pub mod paper;
 pub mod plot;
+pub mod radiance;
 pub mod table1;
 
 use crate::cache::IrradianceCache;

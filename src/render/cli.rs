@@ -282,7 +282,8 @@ pub fn run_render(args: RenderArgs) -> Result<(), RenderError> {
         .image
         .write_overlay_png(&overlay, exposure, &points)
         .map_err(io)?;
-    let json = frame.stats.to_json(scene.name());
+    let summary = super::stats::SceneSummary::of(&scene, args.obj.is_none());
+    let json = frame.stats.to_json(scene.name(), &summary);
     if let Some(path) = &args.stats {
         std::fs::write(path, &json)
             .map_err(|e| RenderError::Io(format!("{}: {e}", path.display())))?;

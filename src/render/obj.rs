@@ -1,4 +1,4 @@
-//! Wavefront OBJ and MTL loading: positions (`v`), faces (`f`, polygons fanned into triangles,
+//! Wavefront OBJ and MTL loading (plain or gzipped, `NAME.obj.gz`): positions (`v`), faces (`f`, polygons fanned into triangles,
 //! negative indices allowed), materials (`mtllib`, `usemtl`; in the MTL `newmtl`, `Kd` diffuse
 //! colour, `Ke` emission, and `map_Kd`'s mean colour for a material without `Kd`). Texture
 //! coordinates, normals, groups, objects and smoothing are read past silently (a face's `vt` and
@@ -68,8 +68,28 @@ fn err(file: &Path, line: Option<usize>, message: impl Into<String>) -> ObjError
     }
 }
 
+/// The text of `file`: one of the built-in scene files compiled into the binary (paths under
+/// [`super::scenes::BUILT_IN`]) or a file on disk, gunzipped when its name ends in `.gz`.
 fn read(file: &Path) -> Result<String, ObjError> {
-    std::fs::read_to_string(file).map_err(|e| err(file, None, format!("cannot read: {e}")))
+    let bytes = match super::scenes::built_in_file(file) {
+        Some(bytes) => bytes.to_vec(),
+        None => std::fs::read(file).map_err(|e| err(file, None, format!("cannot read: {e}")))?,
+    };
+    let bytes = if file.extension().is_some_and(|e| e == "gz") {
+        let mut out = Vec::new();
+        std::io::Read::read_to_end(&mut flate2::read::GzDecoder::new(&bytes[..]), &mut out)
+            .map_err(|e| err(file, None, format!("cannot gunzip: {e}")))?;
+        out
+    } else {
+        bytes
+    };
+    String::from_utf8(bytes).map_err(|e| {
+        err(
+            file,
+            None,
+            format!("not UTF-8 text (byte {})", e.utf8_error().valid_up_to()),
+        )
+    })
 }
 
 /// `w` as a finite number, or an error naming it.

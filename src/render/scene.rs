@@ -54,6 +54,8 @@ pub enum SceneError {
     NonFinite(String),
     /// No emissive triangle: nothing lights the scene.
     NoLights(String),
+    /// A built-in scene's file could not be read (the message names the file and line).
+    Load(String),
 }
 
 impl fmt::Display for SceneError {
@@ -65,6 +67,7 @@ impl fmt::Display for SceneError {
                 f,
                 "scene `{name}` has no emissive triangle (material with emission): nothing lights it"
             ),
+            Self::Load(why) => write!(f, "{why}"),
         }
     }
 }
@@ -293,6 +296,22 @@ impl Scene {
     /// The scene's name.
     pub fn name(&self) -> &str {
         &self.name
+    }
+
+    /// Every triangle with a non-zero area once, as its corners (in winding order) and its
+    /// material's index in [`Scene::materials`]: what an exporter to another renderer needs
+    /// (`wfic compare radiance`). In BVH leaf order, not input order.
+    pub fn triangles(&self) -> Vec<([Vec3; 3], MaterialId)> {
+        // The BVH's leaves may list a triangle more than once (spatial splits): keep the first.
+        let mut seen = vec![false; self.input_triangles];
+        let mut out = Vec::with_capacity(self.input_triangles);
+        for (t, &i) in self.tris.iter().zip(&self.bvh.primitive_indices) {
+            if !std::mem::replace(&mut seen[i as usize], true) {
+                let g = t.geometry;
+                out.push(([g.v0.into(), g.v1.into(), g.v2.into()], t.material));
+            }
+        }
+        out
     }
 
     /// Triangles with a non-zero area.

@@ -5,6 +5,31 @@ use super::integrator::{RayCounts, SampleCounters};
 use super::RenderSettings;
 use crate::cache::FrameReport;
 
+/// What the statistics JSON says about the scene besides its name.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct SceneSummary {
+    /// Triangles with a non-zero area.
+    pub triangles: usize,
+    /// `real` or `stand-in` for a built-in scene ([`super::scenes::SceneSource`]), `file` for
+    /// an OBJ file the user named.
+    pub source: String,
+}
+
+impl SceneSummary {
+    /// The summary of `scene`: a built-in one's source from [`super::scenes::info`] when
+    /// `built_in`, else `file`.
+    pub fn of(scene: &super::Scene, built_in: bool) -> Self {
+        let source = match super::scenes::info(scene.name()) {
+            Some(i) if built_in => i.source.name().to_owned(),
+            _ => "file".to_owned(),
+        };
+        Self {
+            triangles: scene.triangle_count(),
+            source,
+        }
+    }
+}
+
 /// A frame's statistics (the paper's Table 1 columns and more).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct FrameStats {
@@ -116,9 +141,11 @@ impl FrameStats {
     /// The statistics as a pretty-printed JSON object, `scene` first; the ray counts appear as
     /// `primary_rays`, `shadow_rays` and `hemisphere_rays`, with the derived
     /// `hemisphere_rays_per_second`.
-    pub fn to_json(&self, scene: &str) -> String {
+    pub fn to_json(&self, scene: &str, source: &SceneSummary) -> String {
         let json = StatsJson {
             scene,
+            triangles: source.triangles,
+            scene_source: &source.source,
             scheme: &self.scheme,
             threads: self.threads,
             width: self.width,
@@ -153,6 +180,8 @@ impl FrameStats {
 #[derive(serde::Serialize)]
 struct StatsJson<'a> {
     scene: &'a str,
+    triangles: usize,
+    scene_source: &'a str,
     scheme: &'a str,
     threads: usize,
     width: u32,
@@ -207,9 +236,15 @@ mod tests {
             worker_seconds: vec![0.5, 0.25],
             ..FrameStats::default()
         };
+        let summary = SceneSummary {
+            triangles: 36,
+            source: "stand-in".to_owned(),
+        };
         let json: serde_json::Value =
-            serde_json::from_str(&stats.to_json("cornell \"box\"")).unwrap();
+            serde_json::from_str(&stats.to_json("cornell \"box\"", &summary)).unwrap();
         assert_eq!(json["scene"], "cornell \"box\"");
+        assert_eq!(json["triangles"], 36);
+        assert_eq!(json["scene_source"], "stand-in");
         assert_eq!(json["scheme"], "wf");
         assert_eq!(json["threads"], 2);
         assert_eq!(json["lookups"], 32);
@@ -222,6 +257,6 @@ mod tests {
         assert_eq!(json["worker_seconds"], serde_json::json!([0.5, 0.25]));
         // 0.75 s of the 2 x 0.5 s worker-time shaded.
         assert_eq!(json["idle_share"], 0.25);
-        assert_eq!(json.as_object().unwrap().len(), 24);
+        assert_eq!(json.as_object().unwrap().len(), 26);
     }
 }

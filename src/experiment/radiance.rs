@@ -1,0 +1,1120 @@
+//! `wfic compare radiance`: the same scene rendered by Radiance (Ward's own irradiance cache,
+//! `rtrace -ab 1`) and by wfic (`wf`), side by side, at matched settings, each against its own
+//! brute-force image; then the wfic setting whose error is at or below Radiance's, and the time
+//! ratio there.
+//!
+//! What is matched. The geometry, materials and lights are exported from the wfic scene
+//! (every triangle a Radiance `polygon`; diffuse materials as `plastic` with no specular
+//! component, which is Lambertian; emitters as `light`, one-sided towards the winding normal in
+//! both renderers). The camera is matched ray for ray: wfic's own primary rays (one through
+//! each pixel's centre) are written to a file and fed to `rtrace -if`, so both renderers shade
+//! exactly the same points. The cache: one bounce of indirect light (`-ab 1`, `-av 0 0 0`;
+//! wfic's indirect term is one bounce), the same rays per record (`-ad N -as 0`: no
+//! supersampling, which wfic does not do), the same accuracy `a` (`-aa`), Radiance's ambient
+//! resolution `-ar` (its minimum record spacing; wfic clamps radii in pixels and scene
+//! fractions instead, `RenderSettings`). Direct light: Radiance's is deterministic (`-dj 0`, every
+//! source tested: `-dt 0 -dc 1`, sources subdivided at the default `-ds 0.2`); wfic samples area
+//! lights stochastically (`light_samples` per hit), with the same per-pixel random stream in a
+//! cached image and in its reference, so the direct term cancels in the cache error.
+//!
+//! Two errors. The *cache error* compares each cached image with that renderer's own
+//! brute-force image (Radiance `-aa 0` with `4N` rays; wfic `--scheme none` with `4N` rays, same
+//! seed and light samples): what the cache interpolates, nothing else. The *image error*
+//! compares each cached image with one converged reference (wfic `none`, `4N` rays, 256 light
+//! samples, another seed): what a user sees, direct-light noise and Radiance's source
+//! subdivision included. Both are relative RMSE of luminance over the pixels that do not see an
+//! emitter, and the mean relative error over the same pixels.
+
+use super::Machine;
+use crate::cache::Scheme;
+use crate::render::film::Image;
+use crate::render::scene::luminance;
+use crate::render::{
+    render_reference, render_with_scheme, scenes, FrameResult, RenderSettings, Scene,
+};
+use glam::Vec3;
+use std::fmt::Write as _;
+use std::io::{BufWriter, Write};
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use std::time::Instant;
+
+/// What one comparison runs.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RadianceConfig {
+    /// Built-in scenes to compare, in order.
+    pub scenes: Vec<String>,
+    /// Image width and height.
+    pub size: (u32, u32),
+    /// Hemisphere rays per record (`-ad`; wfic `rays_per_record`).
+    pub rays: u32,
+    /// Ward's accuracy (`-aa`; wfic `accuracy`).
+    pub accuracy: f32,
+    /// Radiance's ambient resolution (`-ar`).
+    pub resolution: u32,
+    /// wfic's light samples per primary hit in the matched runs.
+    pub light_samples: u32,
+    /// The accuracies of the sweep (each with `rays / 2`, `rays` and `2 rays`).
+    pub sweep_accuracies: Vec<f32>,
+    /// The light-sample counts of the image-noise study.
+    pub light_sweep: Vec<u32>,
+    /// Light samples of the converged reference.
+    pub converged_light_samples: u32,
+    /// Keep the exported scene, rays and ambient files (`DIR/work-NAME/`).
+    pub keep_work: bool,
+}
+
+impl RadianceConfig {
+    /// The full comparison: 512 x 512, `rtrace -ab 1 -ad 1024 -aa 0.15 -ar 128`.
+    pub fn full(scenes: Vec<String>) -> Self {
+        Self {
+            scenes,
+            size: (512, 512),
+            rays: 1024,
+            accuracy: 0.15,
+            resolution: 128,
+            light_samples: 8,
+            sweep_accuracies: vec![0.15, 0.1, 0.07, 0.05, 0.035],
+            light_sweep: vec![8, 16, 32, 64, 128],
+            converged_light_samples: 256,
+            keep_work: false,
+        }
+    }
+
+    /// A smoke run (CI): 128 x 128, 256 rays per record, a short sweep.
+    pub fn quick(scenes: Vec<String>) -> Self {
+        Self {
+            size: (128, 128),
+            rays: 256,
+            sweep_accuracies: vec![0.15, 0.1, 0.07],
+            light_sweep: vec![8, 32],
+            converged_light_samples: 128,
+            ..Self::full(scenes)
+        }
+    }
+}
+
+/// Radiance's binaries: where they are and the `RAYPATH` they need.
+#[derive(Clone, Debug)]
+pub struct RadianceBin {
+    dir: PathBuf,
+    raypath: Option<String>,
+}
+
+/// Where `pip install pyradiance` puts the binaries, for the error message.
+const INSTALL_HINT: &str = "Radiance's `rtrace` was not found. Install it with `pip install pyradiance` \
+(x86-64 Linux, Python 3.11 wheel): the binaries land in the package's `bin/` folder, \
+`<site-packages>/pyradiance/bin` (for example ~/.local/lib/python3.11/site-packages/pyradiance/bin \
+or /usr/local/lib/python3.11/site-packages/pyradiance/bin; `python3 -m pip show -f pyradiance` lists it). \
+wfic looks on PATH, in WFIC_RADIANCE_BIN, and in an installed pyradiance package.";
+
+impl RadianceBin {
+    /// Finds `rtrace`: the folder `WFIC_RADIANCE_BIN` names, then `PATH`, then an installed
+    /// `pyradiance` package (asked of `python3` without importing it). `RAYPATH` is taken from
+    /// the environment, or set to the `lib/` folder next to the binaries when that holds
+    /// `rayinit.cal` (pyradiance's layout).
+    pub fn find() -> Result<Self, String> {
+        let mut candidates: Vec<PathBuf> = Vec::new();
+        if let Some(dir) = std::env::var_os("WFIC_RADIANCE_BIN") {
+            candidates.push(PathBuf::from(dir));
+        }
+        if let Some(path) = std::env::var_os("PATH") {
+            candidates.extend(std::env::split_paths(&path));
+        }
+        if let Some(dir) = pyradiance_dir() {
+            candidates.push(dir.join("bin"));
+        }
+        let dir = candidates
+            .into_iter()
+            .find(|d| d.join("rtrace").is_file() && d.join("oconv").is_file())
+            .ok_or_else(|| INSTALL_HINT.to_owned())?;
+        let raypath = match std::env::var("RAYPATH") {
+            Ok(p) if !p.is_empty() => Some(p),
+            _ => {
+                let lib = dir.parent().map(|p| p.join("lib"));
+                lib.filter(|l| l.join("rayinit.cal").is_file())
+                    .map(|l| format!(".:{}", l.display()))
+            }
+        };
+        Ok(Self { dir, raypath })
+    }
+
+    fn command(&self, tool: &str) -> Command {
+        let mut c = Command::new(self.dir.join(tool));
+        if let Some(p) = &self.raypath {
+            c.env("RAYPATH", p);
+        }
+        c
+    }
+
+    /// `rtrace -version`'s answer.
+    pub fn version(&self) -> String {
+        self.command("rtrace")
+            .arg("-version")
+            .output()
+            .ok()
+            .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_owned())
+            .unwrap_or_else(|| "unknown".to_owned())
+    }
+}
+
+/// The `pyradiance` package folder, if `python3` knows one (found without importing it, which
+/// would need numpy).
+fn pyradiance_dir() -> Option<PathBuf> {
+    let out = Command::new("python3")
+        .args([
+            "-c",
+            "import importlib.util as u; s = u.find_spec('pyradiance'); \
+             print(s.submodule_search_locations[0] if s else '')",
+        ])
+        .stderr(Stdio::null())
+        .output()
+        .ok()?;
+    let dir = String::from_utf8_lossy(&out.stdout).trim().to_owned();
+    (!dir.is_empty()).then(|| PathBuf::from(dir))
+}
+
+/// Runs `cmd`, feeding `stdin` from a file and writing stdout to a file, and returns its wall time.
+fn run_timed(
+    mut cmd: Command,
+    stdin: Option<&Path>,
+    stdout: &Path,
+    what: &str,
+) -> Result<f64, String> {
+    let out = std::fs::File::create(stdout).map_err(|e| format!("{}: {e}", stdout.display()))?;
+    cmd.stdout(out).stderr(Stdio::piped());
+    if let Some(i) = stdin {
+        cmd.stdin(std::fs::File::open(i).map_err(|e| format!("{}: {e}", i.display()))?);
+    }
+    let start = Instant::now();
+    let child = cmd
+        .spawn()
+        .map_err(|e| format!("{what}: cannot start: {e}"))?;
+    let result = child
+        .wait_with_output()
+        .map_err(|e| format!("{what}: {e}"))?;
+    let seconds = start.elapsed().as_secs_f64();
+    if !result.status.success() {
+        return Err(format!(
+            "{what} failed ({}): {}",
+            result.status,
+            String::from_utf8_lossy(&result.stderr).trim()
+        ));
+    }
+    Ok(seconds)
+}
+
+/// Writes the scene as a Radiance scene file: one `plastic` (no specular: Lambertian) or
+/// `light` per material, one `polygon` per triangle, corners in wfic's winding order (Radiance's
+/// front side, from which a `light` emits, is the one the right-hand rule points to, as in wfic).
+pub fn write_rad(scene: &Scene, path: &Path) -> Result<usize, String> {
+    let io = |e: std::io::Error| format!("{}: {e}", path.display());
+    let mut w = BufWriter::new(std::fs::File::create(path).map_err(io)?);
+    writeln!(
+        w,
+        "# {} exported by wfic {}: {} triangles",
+        scene.name(),
+        env!("CARGO_PKG_VERSION"),
+        scene.triangle_count()
+    )
+    .map_err(io)?;
+    for (i, m) in scene.materials().iter().enumerate() {
+        if m.is_emissive() {
+            let e = m.emission;
+            writeln!(w, "void light m{i}\n0\n0\n3 {} {} {}\n", e.x, e.y, e.z).map_err(io)?;
+        } else {
+            let a = m.albedo;
+            writeln!(
+                w,
+                "void plastic m{i}\n0\n0\n5 {} {} {} 0 0\n",
+                a.x, a.y, a.z
+            )
+            .map_err(io)?;
+        }
+    }
+    let tris = scene.triangles();
+    for (k, ([a, b, c], m)) in tris.iter().enumerate() {
+        writeln!(
+            w,
+            "m{m} polygon t{k}\n0\n0\n9 {} {} {} {} {} {} {} {} {}",
+            a.x, a.y, a.z, b.x, b.y, b.z, c.x, c.y, c.z
+        )
+        .map_err(io)?;
+    }
+    w.flush().map_err(io)?;
+    Ok(tris.len())
+}
+
+/// wfic's primary rays for `settings`' image (one through each pixel's centre, rows from the
+/// top), as `rtrace -if` reads them: origin and direction, six native-endian `f32`s a pixel.
+fn write_rays(scene: &Scene, settings: &RenderSettings, path: &Path) -> Result<(), String> {
+    let view = scene.camera().view(settings.width, settings.height);
+    let mut bytes = Vec::with_capacity((settings.width * settings.height * 24) as usize);
+    for y in 0..settings.height {
+        for x in 0..settings.width {
+            let d = view.direction(x as f32 + 0.5, y as f32 + 0.5);
+            let o = view.eye();
+            for c in [o.x, o.y, o.z, d.x, d.y, d.z] {
+                bytes.extend_from_slice(&c.to_ne_bytes());
+            }
+        }
+    }
+    std::fs::write(path, bytes).map_err(|e| format!("{}: {e}", path.display()))
+}
+
+/// Reads `rtrace -ff` output (three `f32`s a ray) into an image.
+fn read_floats(path: &Path, (w, h): (u32, u32)) -> Result<Image, String> {
+    let bytes = std::fs::read(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    let want = (w * h * 12) as usize;
+    if bytes.len() != want {
+        return Err(format!(
+            "{}: {} bytes, expected {want} ({w} x {h} RGB floats)",
+            path.display(),
+            bytes.len()
+        ));
+    }
+    let mut img = Image::new(w, h);
+    for (i, px) in bytes.chunks_exact(12).enumerate() {
+        let f = |k: usize| f32::from_ne_bytes(px[k..k + 4].try_into().expect("4 bytes"));
+        img.set(i as u32 % w, i as u32 / w, Vec3::new(f(0), f(4), f(8)));
+    }
+    Ok(img)
+}
+
+/// Which pixels see a non-emitting surface (the pixels the errors are measured on).
+fn surface_mask(scene: &Scene, settings: &RenderSettings) -> Vec<bool> {
+    let view = scene.camera().view(settings.width, settings.height);
+    let mut mask = Vec::with_capacity((settings.width * settings.height) as usize);
+    for y in 0..settings.height {
+        for x in 0..settings.width {
+            let d = view.direction(x as f32 + 0.5, y as f32 + 0.5);
+            mask.push(
+                scene
+                    .intersect(view.eye(), d, f32::INFINITY)
+                    .is_some_and(|h| !h.material.is_emissive()),
+            );
+        }
+    }
+    mask
+}
+
+/// An image's error against a reference over the masked pixels.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ImageError {
+    /// `sqrt(sum (L - L_ref)^2 / sum L_ref^2)` of luminance.
+    pub rel_rmse: f64,
+    /// Mean of `|L - L_ref| / L_ref` over the pixels with `L_ref > 0`.
+    pub mean_rel: f64,
+}
+
+/// [`ImageError`] of `img` against `reference` over the pixels `mask` selects.
+pub fn image_error(img: &Image, reference: &Image, mask: &[bool]) -> ImageError {
+    let (mut num, mut den, mut rel, mut n) = (0.0f64, 0.0f64, 0.0f64, 0usize);
+    for ((a, b), &m) in img.pixels().iter().zip(reference.pixels()).zip(mask) {
+        if !m {
+            continue;
+        }
+        let (la, lb) = (f64::from(luminance(*a)), f64::from(luminance(*b)));
+        num += (la - lb) * (la - lb);
+        den += lb * lb;
+        if lb > 0.0 {
+            rel += (la - lb).abs() / lb;
+            n += 1;
+        }
+    }
+    ImageError {
+        rel_rmse: if den > 0.0 { (num / den).sqrt() } else { 0.0 },
+        mean_rel: if n > 0 { rel / n as f64 } else { 0.0 },
+    }
+}
+
+/// One measured render.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Run {
+    /// `radiance` or `wfic`.
+    pub renderer: &'static str,
+    /// What the row is: `matched`, `sweep`, `equal-error`, `light-samples`, `reference`.
+    pub role: &'static str,
+    /// Workers (`rtrace -n`, wfic threads).
+    pub workers: usize,
+    /// Accuracy.
+    pub accuracy: f32,
+    /// Rays per record.
+    pub rays: u32,
+    /// wfic light samples (0 for Radiance: deterministic).
+    pub light_samples: u32,
+    /// Wall time of the frame (Radiance: the `rtrace` process, loading the octree included).
+    pub seconds: f64,
+    /// Cache records after the frame.
+    pub records: usize,
+    /// Against the renderer's own brute-force image.
+    pub cache_error: ImageError,
+    /// Against the converged reference.
+    pub image_error: ImageError,
+}
+
+/// One scene's comparison.
+#[derive(Clone, Debug)]
+pub struct SceneComparison {
+    /// The scene.
+    pub scene: String,
+    /// Triangles, and whether the scene is a real model or a stand-in.
+    pub triangles: usize,
+    /// `real` or `stand-in`.
+    pub source: &'static str,
+    /// Seconds `rtrace` takes to load the octree and trace one ray (included in its times).
+    pub radiance_load_seconds: f64,
+    /// Seconds of `oconv` (not included anywhere, like wfic's BVH build).
+    pub oconv_seconds: f64,
+    /// Every measured render.
+    pub runs: Vec<Run>,
+    /// wfic's brute-force image, Radiance's brute-force image against it (the cross-check that
+    /// both render the same scene).
+    pub cross_check: ImageError,
+    /// Mean luminance of Radiance's brute-force image over wfic's converged one (the masked
+    /// pixels): 1 when both render the same light, whatever the noise.
+    pub mean_ratio: f64,
+}
+
+impl SceneComparison {
+    fn find(&self, renderer: &str, role: &str, workers: usize) -> Option<&Run> {
+        self.runs
+            .iter()
+            .find(|r| r.renderer == renderer && r.role == role && r.workers == workers)
+    }
+}
+
+/// Progress lines go to standard error.
+fn say(scene: &str, what: &str) {
+    eprintln!("[{scene}] {what}");
+}
+
+/// Runs the comparison and writes `radiance.md`, `radiance.csv` and one side-by-side PNG per
+/// scene into `out_dir`.
+pub fn run(config: &RadianceConfig, out_dir: &Path, command: &str) -> Result<(), String> {
+    let bin = RadianceBin::find()?;
+    std::fs::create_dir_all(out_dir).map_err(|e| format!("{}: {e}", out_dir.display()))?;
+    let machine = Machine::detect();
+    let version = bin.version();
+    let mut results = Vec::new();
+    for name in &config.scenes {
+        let scene = scenes::by_name(name)
+            .ok_or_else(|| {
+                format!(
+                    "unknown scene `{name}` (expected one of: {})",
+                    scenes::NAMES.join(", ")
+                )
+            })?
+            .map_err(|e| e.to_string())?;
+        results.push(compare_scene(&bin, config, &scene, out_dir)?);
+    }
+    let md = markdown(config, &results, &machine, &version, command);
+    std::fs::write(out_dir.join("radiance.md"), md).map_err(|e| e.to_string())?;
+    std::fs::write(out_dir.join("radiance.csv"), csv(&results)).map_err(|e| e.to_string())?;
+    eprintln!(
+        "wrote {}/radiance.md, radiance.csv and the side-by-side images",
+        out_dir.display()
+    );
+    Ok(())
+}
+
+fn settings(
+    config: &RadianceConfig,
+    accuracy: f32,
+    rays: u32,
+    light: u32,
+    seed: u64,
+) -> RenderSettings {
+    RenderSettings::new(config.size.0, config.size.1)
+        .accuracy(accuracy)
+        .rays_per_record(rays)
+        .light_samples(light)
+        .seed(seed)
+        .quiet(true)
+}
+
+/// A cached wfic frame (`wf`, fresh cache) and its records.
+fn wfic_frame(scene: &Scene, s: &RenderSettings, threads: usize) -> Result<FrameResult, String> {
+    let config = s.cache_config(scene).map_err(|e| e.to_string())?;
+    Ok(render_with_scheme(Scheme::Wf, scene, &scene.camera(), s, config, threads).0)
+}
+
+fn compare_scene(
+    bin: &RadianceBin,
+    config: &RadianceConfig,
+    scene: &Scene,
+    out_dir: &Path,
+) -> Result<SceneComparison, String> {
+    let name = scene.name().to_owned();
+    let work = out_dir.join(format!("work-{name}"));
+    std::fs::create_dir_all(&work).map_err(|e| format!("{}: {e}", work.display()))?;
+    let (n, a) = (config.rays, config.accuracy);
+    let base = settings(config, a, n, config.light_samples, 0x5eed);
+    let mask = surface_mask(scene, &base);
+
+    // Radiance: export, octree, rays.
+    say(
+        &name,
+        &format!("exporting {} triangles to Radiance", scene.triangle_count()),
+    );
+    let rad = work.join("scene.rad");
+    write_rad(scene, &rad)?;
+    let oct = work.join("scene.oct");
+    let mut oconv = bin.command("oconv");
+    oconv.arg("-f").arg(&rad);
+    let oconv_seconds = run_timed(oconv, None, &oct, "oconv")?;
+    let rays = work.join("rays.f32");
+    write_rays(scene, &base, &rays)?;
+    let one = work.join("one.f32");
+    std::fs::write(
+        &one,
+        &std::fs::read(&rays).map_err(|e| e.to_string())?[..24],
+    )
+    .map_err(|e| e.to_string())?;
+
+    let rtrace = |args: &[String], workers: usize, amb: Option<&Path>| {
+        let mut c = bin.command("rtrace");
+        c.args(["-h-", "-fff", "-ab", "1", "-av", "0", "0", "0", "-aw", "0"]);
+        c.args(["-dj", "0", "-dt", "0", "-dc", "1", "-lw", "1e-7"]);
+        c.args(args);
+        c.args(["-n", &workers.to_string()]);
+        if let Some(amb) = amb {
+            c.arg("-af").arg(amb);
+        }
+        c.arg(&oct);
+        c
+    };
+    let cache_args = |a: f32, n: u32| -> Vec<String> {
+        vec![
+            "-ad".into(),
+            n.to_string(),
+            "-as".into(),
+            "0".into(),
+            "-aa".into(),
+            a.to_string(),
+            "-ar".into(),
+            config.resolution.to_string(),
+        ]
+    };
+    let load = run_timed(
+        rtrace(&["-ab".into(), "0".into()], 1, None),
+        Some(&one),
+        &work.join("one.out"),
+        "rtrace (load)",
+    )?;
+
+    // Radiance's brute-force reference: no cache, 4N rays at every pixel.
+    say(
+        &name,
+        &format!("radiance reference: -aa 0 -ad {}, 2 processes", 4 * n),
+    );
+    let ref_out = work.join("ref.f32");
+    let ref_args = vec![
+        "-aa".into(),
+        "0".into(),
+        "-ad".into(),
+        (4 * n).to_string(),
+        "-as".into(),
+        "0".into(),
+    ];
+    let ref_seconds = run_timed(rtrace(&ref_args, 2, None), Some(&rays), &ref_out, "rtrace")?;
+    let radiance_ref = read_floats(&ref_out, config.size)?;
+
+    // wfic's references: brute force with the matched light samples (cache error), and the
+    // converged one (image error) with more light samples and another seed.
+    say(
+        &name,
+        &format!("wfic reference: none, {} rays, 2 threads", 4 * n),
+    );
+    let ref_settings = settings(config, a, 4 * n, config.light_samples, 0x5eed);
+    let rc = ref_settings
+        .cache_config(scene)
+        .map_err(|e| e.to_string())?;
+    let wfic_ref = render_reference(scene, &scene.camera(), &ref_settings, rc, 2);
+    say(
+        &name,
+        &format!(
+            "converged reference: none, {} rays, {} light samples",
+            4 * n,
+            config.converged_light_samples
+        ),
+    );
+    let conv_settings = settings(config, a, 4 * n, config.converged_light_samples, 0xc0ffee);
+    let converged = render_reference(scene, &scene.camera(), &conv_settings, rc, 2);
+    let cross_check = image_error(&radiance_ref, &converged.image, &mask);
+    let mean_ratio = masked_mean(&radiance_ref, &mask) / masked_mean(&converged.image, &mask);
+
+    let mut runs = vec![
+        Run {
+            renderer: "radiance",
+            role: "reference",
+            workers: 2,
+            accuracy: 0.0,
+            rays: 4 * n,
+            light_samples: 0,
+            seconds: ref_seconds,
+            records: 0,
+            cache_error: ImageError::default(),
+            image_error: image_error(&radiance_ref, &converged.image, &mask),
+        },
+        Run {
+            renderer: "wfic",
+            role: "reference",
+            workers: 2,
+            accuracy: 0.0,
+            rays: 4 * n,
+            light_samples: config.light_samples,
+            seconds: wfic_ref.stats.seconds,
+            records: 0,
+            cache_error: ImageError::default(),
+            image_error: image_error(&wfic_ref.image, &converged.image, &mask),
+        },
+    ];
+
+    // Matched settings, 1 and 2 workers each.
+    let mut radiance_images = Vec::new();
+    for workers in [1, 2] {
+        let amb = work.join(format!("amb-{workers}.amb"));
+        std::fs::remove_file(&amb).ok();
+        let out = work.join(format!("cached-{workers}.f32"));
+        say(
+            &name,
+            &format!(
+                "radiance: -aa {a} -ad {n} -ar {}, {workers} process(es)",
+                config.resolution
+            ),
+        );
+        let seconds = run_timed(
+            rtrace(&cache_args(a, n), workers, Some(&amb)),
+            Some(&rays),
+            &out,
+            "rtrace",
+        )?;
+        let img = read_floats(&out, config.size)?;
+        let records = ambient_records(bin, &amb)?;
+        runs.push(Run {
+            renderer: "radiance",
+            role: "matched",
+            workers,
+            accuracy: a,
+            rays: n,
+            light_samples: 0,
+            seconds,
+            records,
+            cache_error: image_error(&img, &radiance_ref, &mask),
+            image_error: image_error(&img, &converged.image, &mask),
+        });
+        radiance_images.push(img);
+    }
+    let mut wfic_images = Vec::new();
+    for workers in [1, 2] {
+        say(
+            &name,
+            &format!("wfic: wf, a {a}, {n} rays, {workers} thread(s)"),
+        );
+        let f = wfic_frame(scene, &base, workers)?;
+        runs.push(Run {
+            renderer: "wfic",
+            role: "matched",
+            workers,
+            accuracy: a,
+            rays: n,
+            light_samples: config.light_samples,
+            seconds: f.stats.seconds,
+            records: f.stats.cache_records,
+            cache_error: image_error(&f.image, &wfic_ref.image, &mask),
+            image_error: image_error(&f.image, &converged.image, &mask),
+        });
+        wfic_images.push(f.image);
+    }
+
+    // The sweep: wfic settings against its reference (whose rays stay 4N).
+    let target = runs
+        .iter()
+        .find(|r| r.renderer == "radiance" && r.role == "matched" && r.workers == 1)
+        .map(|r| r.cache_error.rel_rmse)
+        .expect("measured above");
+    let mut candidates: Vec<(f32, u32)> = Vec::new();
+    for &sa in &config.sweep_accuracies {
+        for sn in [n / 2, n, 2 * n] {
+            candidates.push((sa, sn.max(16)));
+        }
+    }
+    let mut best: Option<Run> = None;
+    for (sa, sn) in candidates {
+        let s = settings(config, sa, sn, config.light_samples, 0x5eed);
+        let f = wfic_frame(scene, &s, 2)?;
+        let run = Run {
+            renderer: "wfic",
+            role: "sweep",
+            workers: 2,
+            accuracy: sa,
+            rays: sn,
+            light_samples: config.light_samples,
+            seconds: f.stats.seconds,
+            records: f.stats.cache_records,
+            cache_error: image_error(&f.image, &wfic_ref.image, &mask),
+            image_error: image_error(&f.image, &converged.image, &mask),
+        };
+        say(
+            &name,
+            &format!(
+                "sweep a {sa} N {sn}: {:.3} s, {} records, cache error {:.2}% (radiance {:.2}%)",
+                run.seconds,
+                run.records,
+                100.0 * run.cache_error.rel_rmse,
+                100.0 * target
+            ),
+        );
+        if run.cache_error.rel_rmse <= target
+            && best.as_ref().map_or(true, |b| run.seconds < b.seconds)
+        {
+            best = Some(run.clone());
+        }
+        runs.push(run);
+    }
+    // The equal-error setting at 1 and 2 workers (the most accurate swept one when none reaches
+    // Radiance's error: the report says so).
+    let chosen = best.clone().unwrap_or_else(|| {
+        runs.iter()
+            .filter(|r| r.role == "sweep")
+            .min_by(|x, y| x.cache_error.rel_rmse.total_cmp(&y.cache_error.rel_rmse))
+            .expect("the sweep is not empty")
+            .clone()
+    });
+    for workers in [1, 2] {
+        let s = settings(
+            config,
+            chosen.accuracy,
+            chosen.rays,
+            config.light_samples,
+            0x5eed,
+        );
+        let f = wfic_frame(scene, &s, workers)?;
+        runs.push(Run {
+            renderer: "wfic",
+            role: if best.is_some() {
+                "equal-error"
+            } else {
+                "most-accurate"
+            },
+            workers,
+            accuracy: chosen.accuracy,
+            rays: chosen.rays,
+            light_samples: config.light_samples,
+            seconds: f.stats.seconds,
+            records: f.stats.cache_records,
+            cache_error: image_error(&f.image, &wfic_ref.image, &mask),
+            image_error: image_error(&f.image, &converged.image, &mask),
+        });
+    }
+    // Image noise against light samples, at the chosen cache setting, 2 threads.
+    for &l in &config.light_sweep {
+        let s = settings(config, chosen.accuracy, chosen.rays, l, 0x5eed);
+        let f = wfic_frame(scene, &s, 2)?;
+        say(
+            &name,
+            &format!(
+                "light samples {l}: {:.3} s, image error {:.2}%",
+                f.stats.seconds,
+                100.0 * image_error(&f.image, &converged.image, &mask).rel_rmse
+            ),
+        );
+        runs.push(Run {
+            renderer: "wfic",
+            role: "light-samples",
+            workers: 2,
+            accuracy: chosen.accuracy,
+            rays: chosen.rays,
+            light_samples: l,
+            seconds: f.stats.seconds,
+            records: f.stats.cache_records,
+            cache_error: ImageError::default(),
+            image_error: image_error(&f.image, &converged.image, &mask),
+        });
+    }
+
+    write_side_by_side(
+        &out_dir.join(format!("{name}-side-by-side.png")),
+        &radiance_images[0],
+        &wfic_images[0],
+        &radiance_ref,
+        &wfic_ref.image,
+        &mask,
+    )?;
+    if !config.keep_work {
+        std::fs::remove_dir_all(&work).ok();
+    }
+    let info = scenes::info(&name);
+    Ok(SceneComparison {
+        scene: name,
+        triangles: scene.triangle_count(),
+        source: info.map_or("file", |i| i.source.name()),
+        radiance_load_seconds: load,
+        oconv_seconds,
+        runs,
+        cross_check,
+        mean_ratio,
+    })
+}
+
+/// Mean luminance over the masked pixels.
+fn masked_mean(img: &Image, mask: &[bool]) -> f64 {
+    let (sum, n) = img
+        .pixels()
+        .iter()
+        .zip(mask)
+        .filter(|(_, &m)| m)
+        .fold((0.0f64, 0usize), |(s, n), (p, _)| {
+            (s + f64::from(luminance(*p)), n + 1)
+        });
+    sum / n.max(1) as f64
+}
+
+/// Records in a Radiance ambient file, counted from `lookamb -h`'s text (one `Position` line a
+/// record). A missing file (no record was written) counts 0.
+fn ambient_records(bin: &RadianceBin, amb: &Path) -> Result<usize, String> {
+    if !amb.exists() {
+        return Ok(0);
+    }
+    let out = bin
+        .command("lookamb")
+        .arg("-h")
+        .arg(amb)
+        .output()
+        .map_err(|e| format!("lookamb: {e}"))?;
+    if !out.status.success() {
+        return Err(format!(
+            "lookamb {}: {}",
+            amb.display(),
+            String::from_utf8_lossy(&out.stderr).trim()
+        ));
+    }
+    Ok(String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .filter(|l| l.trim_start().starts_with("Position"))
+        .count())
+}
+
+/// A false-colour map of `|L - L_ref| / L_ref` (black 0, through red, to yellow-white at 20% and
+/// above), grey where the pixel is not measured.
+fn error_map(img: &Image, reference: &Image, mask: &[bool]) -> Vec<[u8; 3]> {
+    img.pixels()
+        .iter()
+        .zip(reference.pixels())
+        .zip(mask)
+        .map(|((a, b), &m)| {
+            if !m {
+                return [60, 60, 60];
+            }
+            let (la, lb) = (luminance(*a), luminance(*b));
+            let e = if lb > 0.0 {
+                ((la - lb).abs() / lb / 0.2).min(1.0)
+            } else {
+                1.0
+            };
+            let r = (e * 3.0).min(1.0);
+            let g = (e * 3.0 - 1.0).clamp(0.0, 1.0);
+            let bl = (e * 3.0 - 2.0).clamp(0.0, 1.0);
+            [(r * 255.0) as u8, (g * 255.0) as u8, (bl * 255.0) as u8]
+        })
+        .collect()
+}
+
+/// Radiance's cached image beside wfic's (one exposure for both), their error maps against
+/// their own references below.
+fn write_side_by_side(
+    path: &Path,
+    radiance: &Image,
+    wfic: &Image,
+    radiance_ref: &Image,
+    wfic_ref: &Image,
+    mask: &[bool],
+) -> Result<(), String> {
+    let (w, h) = (wfic.width(), wfic.height());
+    let gap = 8u32;
+    let (cw, ch) = (2 * w + gap, 2 * h + gap);
+    let mut canvas = vec![255u8; (cw * ch * 3) as usize];
+    let exposure = wfic_ref.auto_exposure();
+    let mut blit = |x0: u32, y0: u32, rgb: &[[u8; 3]]| {
+        for (i, p) in rgb.iter().enumerate() {
+            let (x, y) = (x0 + i as u32 % w, y0 + i as u32 / w);
+            let at = ((y * cw + x) * 3) as usize;
+            canvas[at..at + 3].copy_from_slice(p);
+        }
+    };
+    let tone = |img: &Image| -> Vec<[u8; 3]> {
+        img.to_srgb8(exposure)
+            .chunks_exact(3)
+            .map(|c| [c[0], c[1], c[2]])
+            .collect()
+    };
+    blit(0, 0, &tone(radiance));
+    blit(w + gap, 0, &tone(wfic));
+    blit(0, h + gap, &error_map(radiance, radiance_ref, mask));
+    blit(w + gap, h + gap, &error_map(wfic, wfic_ref, mask));
+    image::save_buffer(path, &canvas, cw, ch, image::ColorType::Rgb8)
+        .map_err(|e| format!("{}: {e}", path.display()))
+}
+
+fn pct(x: f64) -> String {
+    format!("{:.2}%", 100.0 * x)
+}
+
+/// The report.
+fn markdown(
+    config: &RadianceConfig,
+    results: &[SceneComparison],
+    machine: &Machine,
+    version: &str,
+    command: &str,
+) -> String {
+    let (w, h) = config.size;
+    let n = config.rays;
+    let mut s = String::new();
+    let _ = writeln!(s, "# wfic against Radiance, side by side\n");
+    let _ = writeln!(
+        s,
+        "`{command}` on {} ({} cores; 1 and 2 workers are not oversubscribed). {version}.\n",
+        machine.cpu, machine.cores
+    );
+    let _ = writeln!(
+        s,
+        "{w} x {h}, one ray per pixel (wfic's primary rays fed to `rtrace -if`). Radiance: \
+         `rtrace -ab 1 -ad {n} -as 0 -aa {} -ar {} -av 0 0 0 -dj 0 -dt 0 -dc 1 -lw 1e-7 -n P -af FILE`; \
+         reference `-aa 0 -ad {}`. wfic: `wf`, accuracy {}, {n} rays per record, {} light samples; \
+         reference `--scheme none` with {} rays. Converged reference: wfic `none`, {} rays, {} light \
+         samples, another seed. Errors are relative RMSE of luminance over the pixels that do not see \
+         an emitter (mean relative error in brackets). Times are wall-clock seconds of the frame \
+         (Radiance: the `rtrace` process, loading its octree included; the load alone is listed).\n",
+        config.accuracy,
+        config.resolution,
+        4 * n,
+        config.accuracy,
+        config.light_samples,
+        4 * n,
+        4 * n,
+        config.converged_light_samples
+    );
+    let _ = writeln!(
+        s,
+        "| scene | triangles | source | renderer | workers | setting | seconds | records | records 2/1 | cache error | image error |"
+    );
+    let _ = writeln!(s, "|---|---:|---|---|---:|---|---:|---:|---:|---:|---:|");
+    for r in results {
+        for (renderer, role) in [
+            ("radiance", "matched"),
+            ("wfic", "matched"),
+            ("wfic", "equal-error"),
+            ("wfic", "most-accurate"),
+        ] {
+            let (Some(one), Some(two)) = (r.find(renderer, role, 1), r.find(renderer, role, 2))
+            else {
+                continue;
+            };
+            for run in [one, two] {
+                let _ = writeln!(
+                    s,
+                    "| {} | {} | {} | {} | {} | {role}: a {} N {}{} | {:.3} | {} | {} | {} ({}) | {} ({}) |",
+                    r.scene,
+                    r.triangles,
+                    r.source,
+                    renderer,
+                    run.workers,
+                    run.accuracy,
+                    run.rays,
+                    if renderer == "wfic" { format!(" L {}", run.light_samples) } else { String::new() },
+                    run.seconds,
+                    run.records,
+                    if run.workers == 2 {
+                        format!("{:.3}", run.records as f64 / one.records.max(1) as f64)
+                    } else {
+                        "".to_owned()
+                    },
+                    pct(run.cache_error.rel_rmse),
+                    pct(run.cache_error.mean_rel),
+                    pct(run.image_error.rel_rmse),
+                    pct(run.image_error.mean_rel),
+                );
+            }
+        }
+    }
+    let _ = writeln!(s, "\n## Time at equal error\n");
+    let _ = writeln!(
+        s,
+        "| scene | workers | radiance s | radiance cache error | wfic setting | wfic s | wfic cache error | time ratio wfic/radiance | goal <= 0.1 | extra records at 2 (wfic) | goal <= 2% |"
+    );
+    let _ = writeln!(s, "|---|---:|---:|---:|---|---:|---:|---:|---|---:|---|");
+    for r in results {
+        let role = if r.find("wfic", "equal-error", 1).is_some() {
+            "equal-error"
+        } else {
+            "most-accurate"
+        };
+        let (w1, w2) = (r.find("wfic", role, 1), r.find("wfic", role, 2));
+        for workers in [1, 2] {
+            let (Some(rad), Some(wf)) = (
+                r.find("radiance", "matched", workers),
+                r.find("wfic", role, workers),
+            ) else {
+                continue;
+            };
+            let ratio = wf.seconds / rad.seconds;
+            let extra = match (w1, w2) {
+                (Some(a), Some(b)) => b.records as f64 / a.records.max(1) as f64 - 1.0,
+                _ => f64::NAN,
+            };
+            let _ = writeln!(
+                s,
+                "| {} | {workers} | {:.3} | {} | {role}: a {} N {} | {:.3} | {} | {:.4} | {} | {} | {} |",
+                r.scene,
+                rad.seconds,
+                pct(rad.cache_error.rel_rmse),
+                wf.accuracy,
+                wf.rays,
+                wf.seconds,
+                pct(wf.cache_error.rel_rmse),
+                ratio,
+                if role == "equal-error" && ratio <= 0.1 { "yes" } else { "NO" },
+                pct(extra),
+                if extra <= 0.02 { "yes" } else { "NO" },
+            );
+        }
+    }
+    let _ = writeln!(
+        s,
+        "\n## Image noise against light samples (wfic, 2 threads)\n"
+    );
+    let _ = writeln!(
+        s,
+        "| scene | radiance image error (1 worker) | light samples | wfic s | wfic image error | at or below radiance |"
+    );
+    let _ = writeln!(s, "|---|---:|---:|---:|---:|---|");
+    for r in results {
+        let Some(rad) = r.find("radiance", "matched", 1) else {
+            continue;
+        };
+        for run in r.runs.iter().filter(|x| x.role == "light-samples") {
+            let _ = writeln!(
+                s,
+                "| {} | {} | {} | {:.3} | {} | {} |",
+                r.scene,
+                pct(rad.image_error.rel_rmse),
+                run.light_samples,
+                run.seconds,
+                pct(run.image_error.rel_rmse),
+                if run.image_error.rel_rmse <= rad.image_error.rel_rmse {
+                    "yes"
+                } else {
+                    "no"
+                }
+            );
+        }
+    }
+    let _ = writeln!(s, "\n## The sweep (wfic, 2 threads) and the references\n");
+    let _ = writeln!(
+        s,
+        "| scene | renderer | role | a | N | L | seconds | records | cache error | image error |"
+    );
+    let _ = writeln!(s, "|---|---|---|---:|---:|---:|---:|---:|---:|---:|");
+    for r in results {
+        for run in r
+            .runs
+            .iter()
+            .filter(|x| x.role == "sweep" || x.role == "reference")
+        {
+            let _ = writeln!(
+                s,
+                "| {} | {} | {} | {} | {} | {} | {:.3} | {} | {} | {} |",
+                r.scene,
+                run.renderer,
+                run.role,
+                run.accuracy,
+                run.rays,
+                run.light_samples,
+                run.seconds,
+                run.records,
+                pct(run.cache_error.rel_rmse),
+                pct(run.image_error.rel_rmse)
+            );
+        }
+    }
+    let _ = writeln!(s, "\n## Cross-check and load times\n");
+    let _ = writeln!(
+        s,
+        "| scene | Radiance brute force vs converged wfic: error | mean luminance ratio | rtrace load + 1 ray (s) | oconv (s) |"
+    );
+    let _ = writeln!(s, "|---|---:|---:|---:|---:|");
+    for r in results {
+        let _ = writeln!(
+            s,
+            "| {} | {} ({}) | {:.4} | {:.3} | {:.3} |",
+            r.scene,
+            pct(r.cross_check.rel_rmse),
+            pct(r.cross_check.mean_rel),
+            r.mean_ratio,
+            r.radiance_load_seconds,
+            r.oconv_seconds
+        );
+    }
+    let _ = writeln!(
+        s,
+        "\nSide-by-side images: `SCENE-side-by-side.png` (top: Radiance, wfic, cached, one exposure; \
+         bottom: each one's relative error against its own brute-force image, black 0 to white 20%, \
+         grey: not measured)."
+    );
+    s
+}
+
+/// Every run as CSV.
+fn csv(results: &[SceneComparison]) -> String {
+    let mut s = String::from(
+        "scene,triangles,source,renderer,role,workers,accuracy,rays,light_samples,seconds,records,\
+         cache_rel_rmse,cache_mean_rel,image_rel_rmse,image_mean_rel\n",
+    );
+    for r in results {
+        for run in &r.runs {
+            let _ = writeln!(
+                s,
+                "{},{},{},{},{},{},{},{},{},{:.4},{},{:.6},{:.6},{:.6},{:.6}",
+                r.scene,
+                r.triangles,
+                r.source,
+                run.renderer,
+                run.role,
+                run.workers,
+                run.accuracy,
+                run.rays,
+                run.light_samples,
+                run.seconds,
+                run.records,
+                run.cache_error.rel_rmse,
+                run.cache_error.mean_rel,
+                run.image_error.rel_rmse,
+                run.image_error.mean_rel
+            );
+        }
+    }
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_error_is_relative_to_the_reference_and_skips_masked_pixels() {
+        let mut a = Image::new(2, 1);
+        let mut b = Image::new(2, 1);
+        a.set(0, 0, Vec3::splat(1.1));
+        b.set(0, 0, Vec3::splat(1.0));
+        // The second pixel is far off but masked out.
+        a.set(1, 0, Vec3::splat(9.0));
+        b.set(1, 0, Vec3::splat(1.0));
+        let e = image_error(&a, &b, &[true, false]);
+        assert!((e.rel_rmse - 0.1).abs() < 1e-5, "{e:?}");
+        assert!((e.mean_rel - 0.1).abs() < 1e-5, "{e:?}");
+        let all = image_error(&a, &b, &[true, true]);
+        assert!(all.rel_rmse > 1.0, "{all:?}");
+    }
+}
