@@ -9,7 +9,7 @@ is C source with `float conference_vertices[]` (x, y, z triples, Y up) and
 `unsigned int conference_indices[]` (0-based triangles), and conference/copyright.txt.
 OUTDIR defaults to the `scenes` directory next to this script.
 
-What the script does (details and reasons in scenes/NOTES-sponza-conference.md):
+What the script does (details and reasons in scenes/README.md):
   * scale: model units -> metres with SCALE (measured so the room matches Greg Ward's stated
     35.5 x 22 x 8.9 ft), and a shift in y that puts the floor at y = 0;
   * every source triangle is kept, in source order within each material (zero-area ones too:

@@ -15,7 +15,7 @@ Optional: --rad FILE also writes the triangles back as a Radiance scene (plastic
 polygons) for an oconv/rpict comparison with the original; --expanded FILE keeps the
 `xform -e` output.
 
-Conversion rules (see scenes/NOTES-office.md):
+Conversion rules (see scenes/README.md):
   * scene files in office.rif order: model.b90 desk misc window blinds lights lamp picture
   * polygon: ear clipping in the polygon's plane, keeping Radiance's winding (front side =
     counter-clockwise seen from the front), so concave outlines and the seam-bridged window

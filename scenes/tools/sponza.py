@@ -4,7 +4,7 @@
 Usage:
     python3 scenes/tools/sponza.py PATH/sponza.zip PATH/sponza.mtl [OUTDIR]
 
-Inputs (see scenes/NOTES-sponza-conference.md for where they come from):
+Inputs (see scenes/README.md for where they come from):
   * sponza.zip  - holds sponza.obj, a Max2Obj 4.0 (2001) export with 34 `g` groups and no
                   materials (66,454 triangles, Y up, metres);
   * sponza.mtl  - the 20 `sp_*` materials of the later material-assigned release; only their

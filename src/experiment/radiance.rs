@@ -30,7 +30,7 @@ use crate::cache::Scheme;
 use crate::render::film::Image;
 use crate::render::scene::luminance;
 use crate::render::{
-    render_reference, render_with_scheme, scenes, FrameResult, RenderSettings, Scene,
+    render_reference_grid, render_with_scheme, scenes, FrameResult, RenderSettings, Scene,
 };
 use glam::Vec3;
 use std::fmt::Write as _;
@@ -60,35 +60,47 @@ pub struct RadianceConfig {
     pub light_sweep: Vec<u32>,
     /// Light samples of the converged reference.
     pub converged_light_samples: u32,
+    /// The lower radius clamps of the sweep, in pixel footprints (wfic's `min_radius_pixels`;
+    /// Radiance clamps by `-ar` instead).
+    pub sweep_min_radius: Vec<f32>,
+    /// The brute-force references are traced at one pixel of each `stride` x `stride` block
+    /// (every error is measured on those pixels), so they cost `1 / stride^2` of a full image.
+    pub reference_stride: u32,
     /// Keep the exported scene, rays and ambient files (`DIR/work-NAME/`).
     pub keep_work: bool,
 }
 
 impl RadianceConfig {
-    /// The full comparison: 512 x 512, `rtrace -ab 1 -ad 1024 -aa 0.15 -ar 128`.
+    /// The full comparison: 256 x 256, `rtrace -ab 1 -ad 512 -aa 0.15 -ar 128`, references at
+    /// one pixel in 16.
     pub fn full(scenes: Vec<String>) -> Self {
         Self {
             scenes,
-            size: (512, 512),
-            rays: 1024,
+            size: (256, 256),
+            rays: 512,
             accuracy: 0.15,
             resolution: 128,
             light_samples: 8,
-            sweep_accuracies: vec![0.15, 0.1, 0.07, 0.05, 0.035],
+            sweep_accuracies: vec![0.15, 0.1, 0.07],
+            sweep_min_radius: vec![6.0, 3.0, 1.5],
             light_sweep: vec![8, 16, 32, 64, 128],
             converged_light_samples: 256,
+            reference_stride: 4,
             keep_work: false,
         }
     }
 
-    /// A smoke run (CI): 128 x 128, 256 rays per record, a short sweep.
+    /// A smoke run (CI): 96 x 96, 128 rays per record, a short sweep, references at one
+    /// pixel in 4.
     pub fn quick(scenes: Vec<String>) -> Self {
         Self {
-            size: (128, 128),
-            rays: 256,
-            sweep_accuracies: vec![0.15, 0.1, 0.07],
+            size: (96, 96),
+            rays: 128,
+            sweep_accuracies: vec![0.15, 0.1],
+            sweep_min_radius: vec![6.0, 3.0],
             light_sweep: vec![8, 32],
             converged_light_samples: 128,
+            reference_stride: 2,
             ..Self::full(scenes)
         }
     }
@@ -247,11 +259,16 @@ pub fn write_rad(scene: &Scene, path: &Path) -> Result<usize, String> {
 
 /// wfic's primary rays for `settings`' image (one through each pixel's centre, rows from the
 /// top), as `rtrace -if` reads them: origin and direction, six native-endian `f32`s a pixel.
-fn write_rays(scene: &Scene, settings: &RenderSettings, path: &Path) -> Result<(), String> {
+fn write_rays(
+    scene: &Scene,
+    settings: &RenderSettings,
+    stride: u32,
+    path: &Path,
+) -> Result<(), String> {
     let view = scene.camera().view(settings.width, settings.height);
     let mut bytes = Vec::with_capacity((settings.width * settings.height * 24) as usize);
-    for y in 0..settings.height {
-        for x in 0..settings.width {
+    for y in (stride / 2..settings.height).step_by(stride as usize) {
+        for x in (stride / 2..settings.width).step_by(stride as usize) {
             let d = view.direction(x as f32 + 0.5, y as f32 + 0.5);
             let o = view.eye();
             for c in [o.x, o.y, o.z, d.x, d.y, d.z] {
@@ -262,10 +279,15 @@ fn write_rays(scene: &Scene, settings: &RenderSettings, path: &Path) -> Result<(
     std::fs::write(path, bytes).map_err(|e| format!("{}: {e}", path.display()))
 }
 
-/// Reads `rtrace -ff` output (three `f32`s a ray) into an image.
-fn read_floats(path: &Path, (w, h): (u32, u32)) -> Result<Image, String> {
+/// Reads `rtrace -ff` output (three `f32`s a ray, the rays of [`write_rays`] with `stride`)
+/// into a `w` x `h` image (black where no ray was traced).
+fn read_floats(path: &Path, (w, h): (u32, u32), stride: u32) -> Result<Image, String> {
     let bytes = std::fs::read(path).map_err(|e| format!("{}: {e}", path.display()))?;
-    let want = (w * h * 12) as usize;
+    let (sw, sh) = (
+        (stride / 2..w).step_by(stride as usize).count() as u32,
+        (stride / 2..h).step_by(stride as usize).count() as u32,
+    );
+    let want = (sw * sh * 12) as usize;
     if bytes.len() != want {
         return Err(format!(
             "{}: {} bytes, expected {want} ({w} x {h} RGB floats)",
@@ -276,22 +298,30 @@ fn read_floats(path: &Path, (w, h): (u32, u32)) -> Result<Image, String> {
     let mut img = Image::new(w, h);
     for (i, px) in bytes.chunks_exact(12).enumerate() {
         let f = |k: usize| f32::from_ne_bytes(px[k..k + 4].try_into().expect("4 bytes"));
-        img.set(i as u32 % w, i as u32 / w, Vec3::new(f(0), f(4), f(8)));
+        let (x, y) = (i as u32 % sw, i as u32 / sw);
+        img.set(
+            stride / 2 + x * stride,
+            stride / 2 + y * stride,
+            Vec3::new(f(0), f(4), f(8)),
+        );
     }
     Ok(img)
 }
 
-/// Which pixels see a non-emitting surface (the pixels the errors are measured on).
-fn surface_mask(scene: &Scene, settings: &RenderSettings) -> Vec<bool> {
+/// Which pixels see a non-emitting surface and lie on the reference grid (the pixels the
+/// errors are measured on).
+fn surface_mask(scene: &Scene, settings: &RenderSettings, stride: u32) -> Vec<bool> {
     let view = scene.camera().view(settings.width, settings.height);
     let mut mask = Vec::with_capacity((settings.width * settings.height) as usize);
     for y in 0..settings.height {
         for x in 0..settings.width {
             let d = view.direction(x as f32 + 0.5, y as f32 + 0.5);
+            let on_grid = x % stride == stride / 2 && y % stride == stride / 2;
             mask.push(
-                scene
-                    .intersect(view.eye(), d, f32::INFINITY)
-                    .is_some_and(|h| !h.material.is_emissive()),
+                on_grid
+                    && scene
+                        .intersect(view.eye(), d, f32::INFINITY)
+                        .is_some_and(|h| !h.material.is_emissive()),
             );
         }
     }
@@ -303,12 +333,14 @@ fn surface_mask(scene: &Scene, settings: &RenderSettings) -> Vec<bool> {
 pub struct ImageError {
     /// `sqrt(sum (L - L_ref)^2 / sum L_ref^2)` of luminance.
     pub rel_rmse: f64,
-    /// Mean of `|L - L_ref| / L_ref` over the pixels with `L_ref > 0`.
+    /// Mean of `|L - L_ref| / L_ref` over the pixels whose `L_ref` is at least 1% of the
+    /// masked pixels' mean (darker ones, mostly noise of the reference, would dominate it).
     pub mean_rel: f64,
 }
 
 /// [`ImageError`] of `img` against `reference` over the pixels `mask` selects.
 pub fn image_error(img: &Image, reference: &Image, mask: &[bool]) -> ImageError {
+    let floor = 0.01 * masked_mean(reference, mask);
     let (mut num, mut den, mut rel, mut n) = (0.0f64, 0.0f64, 0.0f64, 0usize);
     for ((a, b), &m) in img.pixels().iter().zip(reference.pixels()).zip(mask) {
         if !m {
@@ -317,7 +349,7 @@ pub fn image_error(img: &Image, reference: &Image, mask: &[bool]) -> ImageError 
         let (la, lb) = (f64::from(luminance(*a)), f64::from(luminance(*b)));
         num += (la - lb) * (la - lb);
         den += lb * lb;
-        if lb > 0.0 {
+        if lb > floor && lb > 0.0 {
             rel += (la - lb).abs() / lb;
             n += 1;
         }
@@ -343,6 +375,8 @@ pub struct Run {
     pub rays: u32,
     /// wfic light samples (0 for Radiance: deterministic).
     pub light_samples: u32,
+    /// wfic's lower radius clamp in pixel footprints (0 for Radiance, which uses `-ar`).
+    pub min_radius_pixels: f32,
     /// Wall time of the frame (Radiance: the `rtrace` process, loading the octree included).
     pub seconds: f64,
     /// Cache records after the frame.
@@ -377,7 +411,8 @@ pub struct SceneComparison {
 }
 
 impl SceneComparison {
-    fn find(&self, renderer: &str, role: &str, workers: usize) -> Option<&Run> {
+    /// The run of `renderer` in `role` at `workers`, if measured.
+    pub fn find(&self, renderer: &str, role: &str, workers: usize) -> Option<&Run> {
         self.runs
             .iter()
             .find(|r| r.renderer == renderer && r.role == role && r.workers == workers)
@@ -433,13 +468,52 @@ fn settings(
         .quiet(true)
 }
 
-/// A cached wfic frame (`wf`, fresh cache) and its records.
+/// A cached wfic frame (`wf`, fresh cache).
 fn wfic_frame(scene: &Scene, s: &RenderSettings, threads: usize) -> Result<FrameResult, String> {
     let config = s.cache_config(scene).map_err(|e| e.to_string())?;
     Ok(render_with_scheme(Scheme::Wf, scene, &scene.camera(), s, config, threads).0)
 }
 
-fn compare_scene(
+/// The images a comparison measures against.
+struct References<'a> {
+    own: &'a Image,
+    converged: &'a Image,
+    mask: &'a [bool],
+}
+
+impl References<'_> {
+    /// A row for `img`, rendered by `renderer` in `seconds` with `records` records.
+    #[allow(clippy::too_many_arguments)]
+    fn run(
+        &self,
+        renderer: &'static str,
+        role: &'static str,
+        workers: usize,
+        s: Option<&RenderSettings>,
+        (accuracy, rays): (f32, u32),
+        seconds: f64,
+        records: usize,
+        img: &Image,
+    ) -> Run {
+        Run {
+            renderer,
+            role,
+            workers,
+            accuracy,
+            rays,
+            light_samples: s.map_or(0, |s| s.light_samples),
+            min_radius_pixels: s.map_or(0.0, |s| s.min_radius_pixels),
+            seconds,
+            records,
+            cache_error: image_error(img, self.own, self.mask),
+            image_error: image_error(img, self.converged, self.mask),
+        }
+    }
+}
+
+/// Compares one scene (what [`run`] does per scene), its scratch files under
+/// `out_dir/work-NAME/`, its side-by-side image in `out_dir`.
+pub fn compare_scene(
     bin: &RadianceBin,
     config: &RadianceConfig,
     scene: &Scene,
@@ -448,11 +522,12 @@ fn compare_scene(
     let name = scene.name().to_owned();
     let work = out_dir.join(format!("work-{name}"));
     std::fs::create_dir_all(&work).map_err(|e| format!("{}: {e}", work.display()))?;
-    let (n, a) = (config.rays, config.accuracy);
+    let (n, a, k) = (config.rays, config.accuracy, config.reference_stride);
     let base = settings(config, a, n, config.light_samples, 0x5eed);
-    let mask = surface_mask(scene, &base);
+    let mask = surface_mask(scene, &base, k);
+    let camera = scene.camera();
 
-    // Radiance: export, octree, rays.
+    // Radiance: export, octree, rays (every pixel, and the reference grid's).
     say(
         &name,
         &format!("exporting {} triangles to Radiance", scene.triangle_count()),
@@ -464,7 +539,9 @@ fn compare_scene(
     oconv.arg("-f").arg(&rad);
     let oconv_seconds = run_timed(oconv, None, &oct, "oconv")?;
     let rays = work.join("rays.f32");
-    write_rays(scene, &base, &rays)?;
+    write_rays(scene, &base, 1, &rays)?;
+    let grid_rays = work.join("grid-rays.f32");
+    write_rays(scene, &base, k, &grid_rays)?;
     let one = work.join("one.f32");
     std::fs::write(
         &one,
@@ -475,7 +552,7 @@ fn compare_scene(
     let rtrace = |args: &[String], workers: usize, amb: Option<&Path>| {
         let mut c = bin.command("rtrace");
         c.args(["-h-", "-fff", "-ab", "1", "-av", "0", "0", "0", "-aw", "0"]);
-        c.args(["-dj", "0", "-dt", "0", "-dc", "1", "-lw", "1e-7"]);
+        c.args(["-dj", "0", "-lw", "1e-7"]);
         c.args(args);
         c.args(["-n", &workers.to_string()]);
         if let Some(amb) = amb {
@@ -485,16 +562,18 @@ fn compare_scene(
         c
     };
     let cache_args = |a: f32, n: u32| -> Vec<String> {
-        vec![
-            "-ad".into(),
-            n.to_string(),
-            "-as".into(),
-            "0".into(),
-            "-aa".into(),
-            a.to_string(),
-            "-ar".into(),
-            config.resolution.to_string(),
+        [
+            "-ad",
+            &n.to_string(),
+            "-as",
+            "0",
+            "-aa",
+            &a.to_string(),
+            "-ar",
+            &config.resolution.to_string(),
         ]
+        .map(str::to_owned)
+        .to_vec()
     };
     let load = run_timed(
         rtrace(&["-ab".into(), "0".into()], 1, None),
@@ -503,25 +582,27 @@ fn compare_scene(
         "rtrace (load)",
     )?;
 
-    // Radiance's brute-force reference: no cache, 4N rays at every pixel.
+    // Radiance's brute-force reference: no cache, 4N rays at every pixel of the grid.
     say(
         &name,
-        &format!("radiance reference: -aa 0 -ad {}, 2 processes", 4 * n),
+        &format!(
+            "radiance reference: -aa 0 -ad {}, 2 processes, 1 pixel in {}",
+            4 * n,
+            k * k
+        ),
     );
     let ref_out = work.join("ref.f32");
-    let ref_args = vec![
-        "-aa".into(),
-        "0".into(),
-        "-ad".into(),
-        (4 * n).to_string(),
-        "-as".into(),
-        "0".into(),
-    ];
-    let ref_seconds = run_timed(rtrace(&ref_args, 2, None), Some(&rays), &ref_out, "rtrace")?;
-    let radiance_ref = read_floats(&ref_out, config.size)?;
+    let ref_args = ["-aa", "0", "-ad", &(4 * n).to_string(), "-as", "0"].map(str::to_owned);
+    let ref_seconds = run_timed(
+        rtrace(&ref_args, 2, None),
+        Some(&grid_rays),
+        &ref_out,
+        "rtrace",
+    )?;
+    let radiance_ref = read_floats(&ref_out, config.size, k)?;
 
-    // wfic's references: brute force with the matched light samples (cache error), and the
-    // converged one (image error) with more light samples and another seed.
+    // wfic's references on the same grid: brute force with the matched light samples (cache
+    // error), and the converged one (image error) with more light samples and another seed.
     say(
         &name,
         &format!("wfic reference: none, {} rays, 2 threads", 4 * n),
@@ -530,7 +611,8 @@ fn compare_scene(
     let rc = ref_settings
         .cache_config(scene)
         .map_err(|e| e.to_string())?;
-    let wfic_ref = render_reference(scene, &scene.camera(), &ref_settings, rc, 2);
+    let (wfic_ref, wfic_ref_seconds) =
+        render_reference_grid(scene, &camera, &ref_settings, rc, 2, k);
     say(
         &name,
         &format!(
@@ -540,35 +622,41 @@ fn compare_scene(
         ),
     );
     let conv_settings = settings(config, a, 4 * n, config.converged_light_samples, 0xc0ffee);
-    let converged = render_reference(scene, &scene.camera(), &conv_settings, rc, 2);
-    let cross_check = image_error(&radiance_ref, &converged.image, &mask);
-    let mean_ratio = masked_mean(&radiance_ref, &mask) / masked_mean(&converged.image, &mask);
+    let (converged, _) = render_reference_grid(scene, &camera, &conv_settings, rc, 2, k);
+    let cross_check = image_error(&radiance_ref, &converged, &mask);
+    let mean_ratio = masked_mean(&radiance_ref, &mask) / masked_mean(&converged, &mask);
 
+    let radiance_refs = References {
+        own: &radiance_ref,
+        converged: &converged,
+        mask: &mask,
+    };
+    let wfic_refs = References {
+        own: &wfic_ref,
+        converged: &converged,
+        mask: &mask,
+    };
     let mut runs = vec![
-        Run {
-            renderer: "radiance",
-            role: "reference",
-            workers: 2,
-            accuracy: 0.0,
-            rays: 4 * n,
-            light_samples: 0,
-            seconds: ref_seconds,
-            records: 0,
-            cache_error: ImageError::default(),
-            image_error: image_error(&radiance_ref, &converged.image, &mask),
-        },
-        Run {
-            renderer: "wfic",
-            role: "reference",
-            workers: 2,
-            accuracy: 0.0,
-            rays: 4 * n,
-            light_samples: config.light_samples,
-            seconds: wfic_ref.stats.seconds,
-            records: 0,
-            cache_error: ImageError::default(),
-            image_error: image_error(&wfic_ref.image, &converged.image, &mask),
-        },
+        radiance_refs.run(
+            "radiance",
+            "reference",
+            2,
+            None,
+            (0.0, 4 * n),
+            ref_seconds,
+            0,
+            &radiance_ref,
+        ),
+        wfic_refs.run(
+            "wfic",
+            "reference",
+            2,
+            Some(&ref_settings),
+            (0.0, 4 * n),
+            wfic_ref_seconds,
+            0,
+            &wfic_ref,
+        ),
     ];
 
     // Matched settings, 1 and 2 workers each.
@@ -590,20 +678,18 @@ fn compare_scene(
             &out,
             "rtrace",
         )?;
-        let img = read_floats(&out, config.size)?;
+        let img = read_floats(&out, config.size, 1)?;
         let records = ambient_records(bin, &amb)?;
-        runs.push(Run {
-            renderer: "radiance",
-            role: "matched",
+        runs.push(radiance_refs.run(
+            "radiance",
+            "matched",
             workers,
-            accuracy: a,
-            rays: n,
-            light_samples: 0,
+            None,
+            (a, n),
             seconds,
             records,
-            cache_error: image_error(&img, &radiance_ref, &mask),
-            image_error: image_error(&img, &converged.image, &mask),
-        });
+            &img,
+        ));
         radiance_images.push(img);
     }
     let mut wfic_images = Vec::new();
@@ -613,18 +699,16 @@ fn compare_scene(
             &format!("wfic: wf, a {a}, {n} rays, {workers} thread(s)"),
         );
         let f = wfic_frame(scene, &base, workers)?;
-        runs.push(Run {
-            renderer: "wfic",
-            role: "matched",
+        runs.push(wfic_refs.run(
+            "wfic",
+            "matched",
             workers,
-            accuracy: a,
-            rays: n,
-            light_samples: config.light_samples,
-            seconds: f.stats.seconds,
-            records: f.stats.cache_records,
-            cache_error: image_error(&f.image, &wfic_ref.image, &mask),
-            image_error: image_error(&f.image, &converged.image, &mask),
-        });
+            Some(&base),
+            (a, n),
+            f.stats.seconds,
+            f.stats.cache_records,
+            &f.image,
+        ));
         wfic_images.push(f.image);
     }
 
@@ -634,104 +718,110 @@ fn compare_scene(
         .find(|r| r.renderer == "radiance" && r.role == "matched" && r.workers == 1)
         .map(|r| r.cache_error.rel_rmse)
         .expect("measured above");
-    let mut candidates: Vec<(f32, u32)> = Vec::new();
+    let mut best: Option<(Run, RenderSettings)> = None;
     for &sa in &config.sweep_accuracies {
-        for sn in [n / 2, n, 2 * n] {
-            candidates.push((sa, sn.max(16)));
+        for sn in [n, 2 * n] {
+            for &rmin in &config.sweep_min_radius {
+                let mut s = settings(config, sa, sn, config.light_samples, 0x5eed);
+                s.min_radius_pixels = rmin;
+                let f = wfic_frame(scene, &s, 2)?;
+                let run = wfic_refs.run(
+                    "wfic",
+                    "sweep",
+                    2,
+                    Some(&s),
+                    (sa, sn),
+                    f.stats.seconds,
+                    f.stats.cache_records,
+                    &f.image,
+                );
+                say(
+                    &name,
+                    &format!(
+                        "sweep a {sa} N {sn} r_min {rmin} px: {:.3} s, {} records, cache error \
+                         {:.2}% (radiance {:.2}%)",
+                        run.seconds,
+                        run.records,
+                        100.0 * run.cache_error.rel_rmse,
+                        100.0 * target
+                    ),
+                );
+                if run.cache_error.rel_rmse <= target
+                    && best.as_ref().map_or(true, |(b, _)| run.seconds < b.seconds)
+                {
+                    best = Some((run.clone(), s.clone()));
+                }
+                runs.push(run);
+            }
         }
-    }
-    let mut best: Option<Run> = None;
-    for (sa, sn) in candidates {
-        let s = settings(config, sa, sn, config.light_samples, 0x5eed);
-        let f = wfic_frame(scene, &s, 2)?;
-        let run = Run {
-            renderer: "wfic",
-            role: "sweep",
-            workers: 2,
-            accuracy: sa,
-            rays: sn,
-            light_samples: config.light_samples,
-            seconds: f.stats.seconds,
-            records: f.stats.cache_records,
-            cache_error: image_error(&f.image, &wfic_ref.image, &mask),
-            image_error: image_error(&f.image, &converged.image, &mask),
-        };
-        say(
-            &name,
-            &format!(
-                "sweep a {sa} N {sn}: {:.3} s, {} records, cache error {:.2}% (radiance {:.2}%)",
-                run.seconds,
-                run.records,
-                100.0 * run.cache_error.rel_rmse,
-                100.0 * target
-            ),
-        );
-        if run.cache_error.rel_rmse <= target
-            && best.as_ref().map_or(true, |b| run.seconds < b.seconds)
-        {
-            best = Some(run.clone());
-        }
-        runs.push(run);
     }
     // The equal-error setting at 1 and 2 workers (the most accurate swept one when none reaches
     // Radiance's error: the report says so).
-    let chosen = best.clone().unwrap_or_else(|| {
-        runs.iter()
-            .filter(|r| r.role == "sweep")
-            .min_by(|x, y| x.cache_error.rel_rmse.total_cmp(&y.cache_error.rel_rmse))
-            .expect("the sweep is not empty")
-            .clone()
-    });
+    let reached = best.is_some();
+    let chosen: RenderSettings = match best {
+        Some((_, s)) => s,
+        None => {
+            let most = runs
+                .iter()
+                .filter(|r| r.role == "sweep")
+                .min_by(|x, y| x.cache_error.rel_rmse.total_cmp(&y.cache_error.rel_rmse))
+                .expect("the sweep is not empty");
+            let mut s = settings(
+                config,
+                most.accuracy,
+                most.rays,
+                config.light_samples,
+                0x5eed,
+            );
+            s.min_radius_pixels = most.min_radius_pixels;
+            s
+        }
+    };
     for workers in [1, 2] {
-        let s = settings(
-            config,
-            chosen.accuracy,
-            chosen.rays,
-            config.light_samples,
-            0x5eed,
-        );
-        let f = wfic_frame(scene, &s, workers)?;
-        runs.push(Run {
-            renderer: "wfic",
-            role: if best.is_some() {
+        let f = wfic_frame(scene, &chosen, workers)?;
+        runs.push(wfic_refs.run(
+            "wfic",
+            if reached {
                 "equal-error"
             } else {
                 "most-accurate"
             },
             workers,
-            accuracy: chosen.accuracy,
-            rays: chosen.rays,
-            light_samples: config.light_samples,
-            seconds: f.stats.seconds,
-            records: f.stats.cache_records,
-            cache_error: image_error(&f.image, &wfic_ref.image, &mask),
-            image_error: image_error(&f.image, &converged.image, &mask),
-        });
+            Some(&chosen),
+            (chosen.accuracy, chosen.rays_per_record),
+            f.stats.seconds,
+            f.stats.cache_records,
+            &f.image,
+        ));
     }
-    // Image noise against light samples, at the chosen cache setting, 2 threads.
+    // Image noise against light samples, at the chosen cache setting, 1 and 2 threads.
     for &l in &config.light_sweep {
-        let s = settings(config, chosen.accuracy, chosen.rays, l, 0x5eed);
-        let f = wfic_frame(scene, &s, 2)?;
-        say(
-            &name,
-            &format!(
-                "light samples {l}: {:.3} s, image error {:.2}%",
+        let mut s = chosen.clone();
+        s.light_samples = l;
+        for workers in [1, 2] {
+            let f = wfic_frame(scene, &s, workers)?;
+            let run = wfic_refs.run(
+                "wfic",
+                "light-samples",
+                workers,
+                Some(&s),
+                (s.accuracy, s.rays_per_record),
                 f.stats.seconds,
-                100.0 * image_error(&f.image, &converged.image, &mask).rel_rmse
-            ),
-        );
-        runs.push(Run {
-            renderer: "wfic",
-            role: "light-samples",
-            workers: 2,
-            accuracy: chosen.accuracy,
-            rays: chosen.rays,
-            light_samples: l,
-            seconds: f.stats.seconds,
-            records: f.stats.cache_records,
-            cache_error: ImageError::default(),
-            image_error: image_error(&f.image, &converged.image, &mask),
-        });
+                f.stats.cache_records,
+                &f.image,
+            );
+            if workers == 2 {
+                say(
+                    &name,
+                    &format!(
+                        "light samples {l}: {:.3} s, image error {:.2}%",
+                        run.seconds,
+                        100.0 * run.image_error.rel_rmse
+                    ),
+                );
+            }
+            runs.push(run);
+        }
     }
 
     write_side_by_side(
@@ -739,8 +829,9 @@ fn compare_scene(
         &radiance_images[0],
         &wfic_images[0],
         &radiance_ref,
-        &wfic_ref.image,
+        &wfic_ref,
         &mask,
+        k,
     )?;
     if !config.keep_work {
         std::fs::remove_dir_all(&work).ok();
@@ -797,17 +888,23 @@ fn ambient_records(bin: &RadianceBin, amb: &Path) -> Result<usize, String> {
 }
 
 /// A false-colour map of `|L - L_ref| / L_ref` (black 0, through red, to yellow-white at 20% and
-/// above), grey where the pixel is not measured.
-fn error_map(img: &Image, reference: &Image, mask: &[bool]) -> Vec<[u8; 3]> {
-    img.pixels()
-        .iter()
-        .zip(reference.pixels())
-        .zip(mask)
-        .map(|((a, b), &m)| {
-            if !m {
+/// above), grey where the pixel is not measured; each measured pixel of the `stride` grid fills
+/// its `stride` x `stride` block.
+fn error_map(img: &Image, reference: &Image, mask: &[bool], stride: u32) -> Vec<[u8; 3]> {
+    let w = img.width();
+    (0..img.pixels().len())
+        .map(|i| {
+            let (x, y) = (i as u32 % w, i as u32 / w);
+            let (gx, gy) = (
+                (x / stride * stride + stride / 2).min(w - 1),
+                (y / stride * stride + stride / 2).min(img.height() - 1),
+            );
+            let j = (gy * w + gx) as usize;
+            if !mask[j] {
                 return [60, 60, 60];
             }
-            let (la, lb) = (luminance(*a), luminance(*b));
+            let (a, b) = (img.pixels()[j], reference.pixels()[j]);
+            let (la, lb) = (luminance(a), luminance(b));
             let e = if lb > 0.0 {
                 ((la - lb).abs() / lb / 0.2).min(1.0)
             } else {
@@ -830,12 +927,13 @@ fn write_side_by_side(
     radiance_ref: &Image,
     wfic_ref: &Image,
     mask: &[bool],
+    stride: u32,
 ) -> Result<(), String> {
     let (w, h) = (wfic.width(), wfic.height());
     let gap = 8u32;
     let (cw, ch) = (2 * w + gap, 2 * h + gap);
     let mut canvas = vec![255u8; (cw * ch * 3) as usize];
-    let exposure = wfic_ref.auto_exposure();
+    let exposure = wfic.auto_exposure();
     let mut blit = |x0: u32, y0: u32, rgb: &[[u8; 3]]| {
         for (i, p) in rgb.iter().enumerate() {
             let (x, y) = (x0 + i as u32 % w, y0 + i as u32 / w);
@@ -851,8 +949,8 @@ fn write_side_by_side(
     };
     blit(0, 0, &tone(radiance));
     blit(w + gap, 0, &tone(wfic));
-    blit(0, h + gap, &error_map(radiance, radiance_ref, mask));
-    blit(w + gap, h + gap, &error_map(wfic, wfic_ref, mask));
+    blit(0, h + gap, &error_map(radiance, radiance_ref, mask, stride));
+    blit(w + gap, h + gap, &error_map(wfic, wfic_ref, mask, stride));
     image::save_buffer(path, &canvas, cw, ch, image::ColorType::Rgb8)
         .map_err(|e| format!("{}: {e}", path.display()))
 }
@@ -871,6 +969,7 @@ fn markdown(
 ) -> String {
     let (w, h) = config.size;
     let n = config.rays;
+    let k = config.reference_stride;
     let mut s = String::new();
     let _ = writeln!(s, "# wfic against Radiance, side by side\n");
     let _ = writeln!(
@@ -881,12 +980,16 @@ fn markdown(
     let _ = writeln!(
         s,
         "{w} x {h}, one ray per pixel (wfic's primary rays fed to `rtrace -if`). Radiance: \
-         `rtrace -ab 1 -ad {n} -as 0 -aa {} -ar {} -av 0 0 0 -dj 0 -dt 0 -dc 1 -lw 1e-7 -n P -af FILE`; \
-         reference `-aa 0 -ad {}`. wfic: `wf`, accuracy {}, {n} rays per record, {} light samples; \
-         reference `--scheme none` with {} rays. Converged reference: wfic `none`, {} rays, {} light \
-         samples, another seed. Errors are relative RMSE of luminance over the pixels that do not see \
-         an emitter (mean relative error in brackets). Times are wall-clock seconds of the frame \
-         (Radiance: the `rtrace` process, loading its octree included; the load alone is listed).\n",
+         `rtrace -ab 1 -ad {n} -as 0 -aa {} -ar {} -av 0 0 0 -aw 0 -dj 0 -lw 1e-7 -n P -af FILE` \
+         (direct light deterministic, `-dt`/`-dc`/`-ds` at Radiance's defaults); reference `-aa 0 -ad {}`. \
+         wfic: `wf`, accuracy {}, {n} rays per record, {} light samples, radius clamps at their \
+         defaults (6 to 120 pixel footprints); reference `--scheme none` with {} rays. Converged \
+         reference: wfic `none`, {} rays, {} light samples, another seed. The references are traced \
+         at one pixel of every {k} x {k} block, and every error is measured on those pixels: \
+         relative RMSE of luminance over the ones that do not see an emitter (mean relative error \
+         in brackets, over the pixels brighter than 1% of the mean). Times are wall-clock seconds \
+         of the frame (Radiance: the `rtrace` process, loading its octree included; the load \
+         alone is listed below).\n",
         config.accuracy,
         config.resolution,
         4 * n,
@@ -923,7 +1026,11 @@ fn markdown(
                     run.workers,
                     run.accuracy,
                     run.rays,
-                    if renderer == "wfic" { format!(" L {}", run.light_samples) } else { String::new() },
+                    if renderer == "wfic" {
+                        format!(" L {} r_min {} px", run.light_samples, run.min_radius_pixels)
+                    } else {
+                        String::new()
+                    },
                     run.seconds,
                     run.records,
                     if run.workers == 2 {
@@ -983,40 +1090,60 @@ fn markdown(
     }
     let _ = writeln!(
         s,
-        "\n## Image noise against light samples (wfic, 2 threads)\n"
+        "\n## Image noise against light samples (wfic at the equal-error cache setting)\n"
     );
     let _ = writeln!(
         s,
-        "| scene | radiance image error (1 worker) | light samples | wfic s | wfic image error | at or below radiance |"
+        "| scene | radiance image error (1 worker) | light samples | wfic s, 1 thread | wfic s, 2 threads | wfic image error | at or below radiance | time ratio to radiance, 1 / 2 workers |"
     );
-    let _ = writeln!(s, "|---|---:|---:|---:|---:|---|");
+    let _ = writeln!(s, "|---|---:|---:|---:|---:|---:|---|---|");
     for r in results {
         let Some(rad) = r.find("radiance", "matched", 1) else {
             continue;
         };
-        for run in r.runs.iter().filter(|x| x.role == "light-samples") {
+        let rad2 = r.find("radiance", "matched", 2).unwrap_or(rad);
+        let mut first = true;
+        for run in r
+            .runs
+            .iter()
+            .filter(|x| x.role == "light-samples" && x.workers == 2)
+        {
+            let one = r
+                .runs
+                .iter()
+                .find(|x| {
+                    x.role == "light-samples"
+                        && x.workers == 1
+                        && x.light_samples == run.light_samples
+                })
+                .unwrap_or(run);
+            let meets = run.image_error.rel_rmse <= rad.image_error.rel_rmse;
             let _ = writeln!(
                 s,
-                "| {} | {} | {} | {:.3} | {} | {} |",
+                "| {} | {} | {} | {:.3} | {:.3} | {} | {} | {:.4} / {:.4} |",
                 r.scene,
                 pct(rad.image_error.rel_rmse),
                 run.light_samples,
+                one.seconds,
                 run.seconds,
                 pct(run.image_error.rel_rmse),
-                if run.image_error.rel_rmse <= rad.image_error.rel_rmse {
-                    "yes"
-                } else {
-                    "no"
-                }
+                match (meets, first) {
+                    (true, true) => "**yes: the smallest count**",
+                    (true, false) => "yes",
+                    _ => "no",
+                },
+                one.seconds / rad.seconds,
+                run.seconds / rad2.seconds
             );
+            first &= !meets;
         }
     }
     let _ = writeln!(s, "\n## The sweep (wfic, 2 threads) and the references\n");
     let _ = writeln!(
         s,
-        "| scene | renderer | role | a | N | L | seconds | records | cache error | image error |"
+        "| scene | renderer | role | a | N | L | r_min px | seconds | records | cache error | image error |"
     );
-    let _ = writeln!(s, "|---|---|---|---:|---:|---:|---:|---:|---:|---:|");
+    let _ = writeln!(s, "|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|");
     for r in results {
         for run in r
             .runs
@@ -1025,13 +1152,14 @@ fn markdown(
         {
             let _ = writeln!(
                 s,
-                "| {} | {} | {} | {} | {} | {} | {:.3} | {} | {} | {} |",
+                "| {} | {} | {} | {} | {} | {} | {} | {:.3} | {} | {} | {} |",
                 r.scene,
                 run.renderer,
                 run.role,
                 run.accuracy,
                 run.rays,
                 run.light_samples,
+                run.min_radius_pixels,
                 run.seconds,
                 run.records,
                 pct(run.cache_error.rel_rmse),
@@ -1069,14 +1197,14 @@ fn markdown(
 /// Every run as CSV.
 fn csv(results: &[SceneComparison]) -> String {
     let mut s = String::from(
-        "scene,triangles,source,renderer,role,workers,accuracy,rays,light_samples,seconds,records,\
+        "scene,triangles,source,renderer,role,workers,accuracy,rays,light_samples,min_radius_pixels,seconds,records,\
          cache_rel_rmse,cache_mean_rel,image_rel_rmse,image_mean_rel\n",
     );
     for r in results {
         for run in &r.runs {
             let _ = writeln!(
                 s,
-                "{},{},{},{},{},{},{},{},{},{:.4},{},{:.6},{:.6},{:.6},{:.6}",
+                "{},{},{},{},{},{},{},{},{},{},{:.4},{},{:.6},{:.6},{:.6},{:.6}",
                 r.scene,
                 r.triangles,
                 r.source,
@@ -1086,6 +1214,7 @@ fn csv(results: &[SceneComparison]) -> String {
                 run.accuracy,
                 run.rays,
                 run.light_samples,
+                run.min_radius_pixels,
                 run.seconds,
                 run.records,
                 run.cache_error.rel_rmse,

@@ -49,7 +49,8 @@ pub mod stats;
 pub use camera::{Camera, Orbit};
 pub use film::Image;
 pub use parallel::{
-    render_frame, render_orbit, render_reference, render_with_scheme, FrameResult, Pool,
+    render_frame, render_orbit, render_reference, render_reference_grid, render_with_scheme,
+    FrameResult, Pool,
 };
 pub use scene::{Material, Scene, SceneBuilder, SceneError};
 pub use stats::FrameStats;

@@ -258,6 +258,51 @@ pub fn render_reference(
     render_frame(scene, camera, settings, &mut NoCache::new(config), threads)
 }
 
+/// [`render_reference`] at the pixels of a `stride` x `stride` grid only: pixel `(x, y)` is
+/// shaded when `x % stride == stride / 2` and `y % stride == stride / 2`; the others stay black.
+/// A shaded pixel has the value the full reference gives it (every pixel's random streams
+/// depend on the seed and the pixel only), at `1 / stride^2` of the cost: for error measures
+/// against a brute-force image too slow to compute whole (`wfic compare radiance`). Returns the
+/// image and the wall-clock seconds.
+pub fn render_reference_grid(
+    scene: &Scene,
+    camera: &Camera,
+    settings: &RenderSettings,
+    config: CacheConfig,
+    threads: usize,
+    stride: u32,
+) -> (Image, f64) {
+    let start = Instant::now();
+    let stride = stride.max(1);
+    let mut cache = NoCache::new(config);
+    let integrator = PixelIntegrator::new(scene, camera, settings, config.accuracy());
+    let rows: Vec<u32> = (stride / 2..settings.height)
+        .step_by(stride as usize)
+        .collect();
+    let next_row = AtomicUsize::new(0);
+    let frame = cache.frame();
+    let outputs = frame.run(threads.max(1), |handle, _| {
+        let mut counters = SampleCounters::default();
+        let mut out = Vec::new();
+        loop {
+            // Relaxed: as in `tile_loop`, the counter only hands each row to one worker; the
+            // pixels come back through the join.
+            let i = next_row.fetch_add(1, Ordering::Relaxed);
+            let Some(&y) = rows.get(i) else { break };
+            for x in (stride / 2..settings.width).step_by(stride as usize) {
+                out.push((x, y, integrator.pixel(x, y, handle, &mut counters)));
+            }
+        }
+        out
+    });
+    frame.close();
+    let mut image = Image::new(settings.width, settings.height);
+    for (x, y, p) in outputs.into_iter().flatten() {
+        image.set(x, y, p);
+    }
+    (image, start.elapsed().as_secs_f64())
+}
+
 /// Renders `frames` frames of the scene's orbit ([`Camera::orbit`] at `i / frames` turns) with one
 /// cache that keeps its records from frame to frame (the paper's §4.2 walkthroughs), calling
 /// `each(i, &frame)` after each frame; returns the frames' statistics.
