@@ -77,15 +77,7 @@ pub fn run(
     if config.frames == 0 || config.threads == 0 {
         return Err("--frames and --threads must be at least 1".to_owned());
     }
-    let scene = scenes::by_name(&config.scene)
-        .ok_or_else(|| {
-            format!(
-                "unknown scene `{}` (expected one of: {})",
-                config.scene,
-                scenes::NAMES.join(", ")
-            )
-        })?
-        .map_err(|e| format!("{}: {e}", config.scene))?;
+    let scene = scenes::load(&config.scene)?;
     let mut orbits = Vec::new();
     for &scheme in &config.schemes {
         let threads = config.threads_of(scheme);

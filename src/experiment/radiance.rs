@@ -433,14 +433,7 @@ pub fn run(config: &RadianceConfig, out_dir: &Path, command: &str) -> Result<(),
     let version = bin.version();
     let mut results = Vec::new();
     for name in &config.scenes {
-        let scene = scenes::by_name(name)
-            .ok_or_else(|| {
-                format!(
-                    "unknown scene `{name}` (expected one of: {})",
-                    scenes::NAMES.join(", ")
-                )
-            })?
-            .map_err(|e| e.to_string())?;
+        let scene = scenes::load(name)?;
         results.push(compare_scene(&bin, config, &scene, out_dir)?);
     }
     let md = markdown(config, &results, &machine, &version, command);

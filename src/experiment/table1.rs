@@ -347,14 +347,7 @@ pub fn run(
     let mut measurements = Vec::new();
     let mut controls = Vec::new();
     for name in &config.scenes {
-        let scene = scenes::by_name(name)
-            .ok_or_else(|| {
-                format!(
-                    "unknown scene `{name}` (expected one of: {})",
-                    scenes::NAMES.join(", ")
-                )
-            })?
-            .map_err(|e| format!("{name}: {e}"))?;
+        let scene = scenes::load(name)?;
         let cache_config = config
             .settings
             .cache_config(&scene)

@@ -3,8 +3,9 @@
 //! One module per job, as pbrt-v4 organises a renderer:
 //!
 //! * [`scene`] — triangles, diffuse materials, emissive triangles, the BVH (obvhs);
-//! * [`scenes`] — the paper's five scenes: the Cornell box from the published data and procedural
-//!   stand-ins for Desk, Conference Room, Office and Sponza (`paper-notes.md` (section "The renderer and its five scenes"));
+//! * [`scenes`] — the paper's five scenes, all real models: the Cornell box from the published
+//!   data, Sponza, the Conference Room, the Office and its Desk view, compiled in from `scenes/`
+//!   (`scenes/README.md`; `paper-notes.md`, section "The renderer and its five scenes");
 //! * [`obj`] — Wavefront OBJ/MTL loading for user scenes;
 //! * [`camera`] — pinhole camera and the orbit of the paper's animations;
 //! * [`sampler`] — per-pixel deterministic random numbers;

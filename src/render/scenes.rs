@@ -124,6 +124,19 @@ pub fn by_name(name: &str) -> Option<Result<Scene, SceneError>> {
     })
 }
 
+/// Builds built-in scene `name`, or says what is wrong: an unknown name (with the known ones)
+/// or a scene that does not build (named).
+pub fn load(name: &str) -> Result<Scene, String> {
+    by_name(name)
+        .ok_or_else(|| {
+            format!(
+                "unknown scene `{name}` (expected one of: {})",
+                NAMES.join(", ")
+            )
+        })?
+        .map_err(|e| format!("{name}: {e}"))
+}
+
 fn v(x: f32, y: f32, z: f32) -> Vec3 {
     Vec3::new(x, y, z)
 }
