@@ -713,7 +713,7 @@ pub fn compare_scene(
         .expect("measured above");
     let mut best: Option<(Run, RenderSettings)> = None;
     for &sa in &config.sweep_accuracies {
-        for sn in [n, 2 * n] {
+        for sn in [(n / 2).max(16), n, 2 * n] {
             for &rmin in &config.sweep_min_radius {
                 let mut s = settings(config, sa, sn, config.light_samples, 0x5eed);
                 s.min_radius_pixels = rmin;

@@ -35,6 +35,7 @@
 //!   form is within 5% (`translational_gradient_matches_finite_differences_next_to_a_wall`).
 
 use super::camera::{Camera, View};
+use super::lights::LightChoice;
 use super::sampler::{Rng, Stream};
 use super::scene::Scene;
 use super::RenderSettings;
@@ -117,8 +118,44 @@ fn frame(n: Vec3) -> (Vec3, Vec3) {
     (t, n.cross(t))
 }
 
+/// The irradiance one light sample brings to `origin` (unit facing normal `n`), for the uniform
+/// numbers `u` ([`Scene::light_sample`]) under the point's emitter probabilities `choice`: the
+/// sample's emission times its geometry term over its density if nothing blocks the shadow ray.
+#[inline]
+fn light_contribution(
+    scene: &Scene,
+    choice: &LightChoice,
+    origin: Vec3,
+    n: Vec3,
+    u: [f32; 3],
+    rays: &mut RayCounts,
+) -> Vec3 {
+    let Some(s) = scene.light_sample(choice, u.map(|c| c.min(1.0 - f32::EPSILON))) else {
+        return Vec3::ZERO;
+    };
+    let d = s.point - origin;
+    let dist2 = d.length_squared();
+    if dist2 <= 0.0 {
+        return Vec3::ZERO;
+    }
+    let dist = dist2.sqrt();
+    let w = d / dist;
+    let cos_x = n.dot(w);
+    let cos_l = -s.normal.dot(w);
+    if cos_x <= 0.0 || cos_l <= 0.0 {
+        return Vec3::ZERO;
+    }
+    rays.shadow += 1;
+    if scene.unoccluded(origin, w, dist * (1.0 - 1e-3)) {
+        s.emission * (cos_x * cos_l / (dist2 * s.pdf_area))
+    } else {
+        Vec3::ZERO
+    }
+}
+
 /// Irradiance at `x` (unit facing normal `n`) from the scene's lights: `samples` stratified points
-/// on the lights, one shadow ray each. `eps` is the ray offset.
+/// on the lights (emitters chosen by power over distance, [`crate::render::lights`]), one shadow
+/// ray each. `eps` is the ray offset.
 pub fn direct_irradiance(
     scene: &Scene,
     x: Vec3,
@@ -129,6 +166,7 @@ pub fn direct_irradiance(
     rays: &mut RayCounts,
 ) -> Vec3 {
     let origin = x + n * eps;
+    let choice = scene.light_choice(origin, n);
     let mut sum = Vec3::ZERO;
     // Stratified: sample i takes the i-th of `samples` strata of the light choice, and a cell of a
     // g x g grid on the light (g = ceil(sqrt(samples)) <= 8) drawn from a random permutation of
@@ -159,25 +197,22 @@ pub fn direct_irradiance(
             (r1, r2)
         };
         let u0 = (i as f32 + rng.next_f32()) / samples as f32;
-        let s = scene.light_at([u0, u1, u2].map(|c| c.min(1.0 - f32::EPSILON)));
-        let d = s.point - origin;
-        let dist2 = d.length_squared();
-        if dist2 <= 0.0 {
-            continue;
-        }
-        let dist = dist2.sqrt();
-        let w = d / dist;
-        let cos_x = n.dot(w);
-        let cos_l = -s.normal.dot(w);
-        if cos_x <= 0.0 || cos_l <= 0.0 {
-            continue;
-        }
-        rays.shadow += 1;
-        if scene.unoccluded(origin, w, dist * (1.0 - 1e-3)) {
-            sum += s.emission * (cos_x * cos_l / (dist2 * s.pdf_area));
-        }
+        sum += light_contribution(scene, &choice, origin, n, [u0, u1, u2], rays);
     }
     sum / samples.max(1) as f32
+}
+
+/// Light samples at a hemisphere hit next to an emitter ([`LightChoice::near`]); elsewhere one.
+pub const NEAR_HIT_SAMPLES: u32 = 16;
+
+/// A random permutation of `0..len` (Fisher-Yates).
+fn permutation(len: usize, rng: &mut Rng) -> Vec<u32> {
+    let mut p: Vec<u32> = (0..len as u32).collect();
+    for k in (1..len).rev() {
+        let j = (rng.next_u64() % (k as u64 + 1)) as usize;
+        p.swap(k, j);
+    }
+    p
 }
 
 /// Ward's stratified hemisphere estimate at `x` with unit facing normal `n` (see the module doc).
@@ -197,6 +232,15 @@ pub fn sample_irradiance(
     let mut radiance = vec![Vec3::ZERO; m * nn];
     let mut dist = vec![f32::INFINITY; m * nn];
     let mut inv_dist_sum = 0.0f64;
+    // The light samples at the hits, one per cell, are stratified across the cells: cell c takes
+    // stratum choice[c] of the light choice (u[0]) and stratum spot[c] of an M x N grid over the
+    // point on the light (u[1], u[2]), from two independent permutations. Each sample is still
+    // uniform on its own (the estimate stays unbiased), but the estimate's samples cover the
+    // lights evenly instead of clumping: with one light sample per hit, their clumping was most
+    // of a record's noise.
+    let cells = m * nn;
+    let choice = permutation(cells, rng);
+    let spot = permutation(cells, rng);
     for j in 0..m {
         for k in 0..nn {
             let u = (j as f32 + rng.next_f32()) / m as f32;
@@ -209,14 +253,29 @@ pub fn sample_irradiance(
                 let y = origin + w * hit.t;
                 let ny = facing(hit.normal, w);
                 // Reflected light only: the lights' own emission is in E_direct (module doc).
-                let ed = direct_irradiance(scene, y, ny, 1, eps, rng, rays);
+                let c = j * nn + k;
+                let (a, b) = (spot[c] as usize / nn, spot[c] as usize % nn);
+                let u = [
+                    (choice[c] as f32 + rng.next_f32()) / cells as f32,
+                    (a as f32 + rng.next_f32()) / m as f32,
+                    (b as f32 + rng.next_f32()) / nn as f32,
+                ];
+                let oy = y + ny * eps;
+                let lights = scene.light_choice(oy, ny);
+                let ed = if lights.near() {
+                    // Next to an emitter one sample's geometry term varies by an order of
+                    // magnitude over it: take NEAR_HIT_SAMPLES there (few hits are).
+                    direct_irradiance(scene, y, ny, NEAR_HIT_SAMPLES, eps, rng, rays)
+                } else {
+                    light_contribution(scene, &lights, oy, ny, u, rays)
+                };
                 radiance[j * nn + k] = hit.material.albedo * ed * (1.0 / PI);
                 dist[j * nn + k] = hit.t;
                 inv_dist_sum += 1.0 / f64::from(hit.t.max(eps));
             }
         }
     }
-    let cells = (m * nn) as f32;
+    let cells = cells as f32;
     let irradiance = radiance.iter().copied().sum::<Vec3>() * (PI / cells);
     let harmonic_mean = if inv_dist_sum > 0.0 {
         (f64::from(cells) / inv_dist_sum) as f32
@@ -228,7 +287,9 @@ pub fn sample_irradiance(
         let (s, c) = phi.sin_cos();
         t * c + b * s
     };
-    let theta_minus = |j: usize| (j as f32 / m as f32).sqrt().asin();
+    // sin of the lower edge of ring j: the rings are uniform in sin^2 theta, so sin(theta_j-) is
+    // sqrt(j / M) and cos(theta_j-) is sqrt(1 - j / M), no trigonometry needed.
+    let sin_lo: Vec<f32> = (0..=m).map(|j| (j as f32 / m as f32).sqrt()).collect();
     let mut grad_r = [Vec3::ZERO; 3];
     let mut grad_t = [Vec3::ZERO; 3];
     let add = |g: &mut [Vec3; 3], d: Vec3, l: Vec3| {
@@ -252,19 +313,18 @@ pub fn sample_irradiance(
             add(&mut grad_r, v_k, l * (tan_c * PI / cells));
             // Translational, ring boundary between j - 1 and j.
             if j > 0 {
-                let th = theta_minus(j);
-                let (s, c) = th.sin_cos();
+                let s = sin_lo[j];
+                let c2 = 1.0 - s * s;
                 let r = dist[cell].min(dist[cell - nn]);
                 if r.is_finite() {
-                    let coef = TAU / nn as f32 * s * c * c / r;
+                    let coef = TAU / nn as f32 * s * c2 / r;
                     add(&mut grad_t, u_k, (l - radiance[cell - nn]) * coef);
                 }
             }
             // Translational, sector boundary between k - 1 and k.
             let r = dist[cell].min(dist[j * nn + prev]);
             if r.is_finite() {
-                let (lo, hi) = (theta_minus(j), theta_minus(j + 1));
-                let coef = (hi.sin() - lo.sin()) / r;
+                let coef = (sin_lo[j + 1] - sin_lo[j]) / r;
                 add(&mut grad_t, v_lo, (l - radiance[j * nn + prev]) * coef);
             }
         }
@@ -525,7 +585,7 @@ mod tests {
         let scene = scenes::cornell().unwrap();
         let x = Vec3::new(0.08, 0.4, 0.5591);
         let n = -Vec3::Z;
-        let seeds = 8;
+        let seeds = 32;
         let here = estimate(&scene, x, n, seeds);
         let tilt = Vec3::new(-0.1, 0.0, -1.0).normalize();
         let tilted = estimate(&scene, x, tilt, seeds);
@@ -602,6 +662,91 @@ mod tests {
                 here.grad_t[0].z.abs() < 0.05 * measured,
                 "{}",
                 here.grad_t[0]
+            );
+        }
+    }
+
+    #[test]
+    fn choice_by_distance_is_unbiased_between_two_emitters() {
+        use crate::render::camera::{Camera, Orbit};
+        use crate::render::scene::{Material, SceneBuilder};
+        // A near 1 x 1 emitter 0.5 above the point and a far, brighter 2 x 2 one 3 above and 4 to
+        // the side, both facing down: the emitters are chosen by power over distance, not by
+        // power, so the estimate must still average to the quadrature of both.
+        let mut b = SceneBuilder::new();
+        let near = b.material(Material::light(Vec3::ONE));
+        let far = b.material(Material::light(Vec3::splat(4.0)));
+        let floor = b.material(Material::diffuse(Vec3::splat(0.5)));
+        let v = Vec3::new;
+        let down = |b: &mut SceneBuilder, x0: f32, z0: f32, s: f32, y: f32, m| {
+            b.quad(
+                v(x0, y, z0),
+                v(x0 + s, y, z0),
+                v(x0 + s, y, z0 + s),
+                v(x0, y, z0 + s),
+                m,
+            )
+        };
+        down(&mut b, -0.5, -0.5, 1.0, 0.5, near);
+        down(&mut b, 3.0, -1.0, 2.0, 3.0, far);
+        b.quad(
+            v(-50.0, 0.0, -50.0),
+            v(-50.0, 0.0, 50.0),
+            v(50.0, 0.0, 50.0),
+            v(50.0, 0.0, -50.0),
+            floor,
+        );
+        let orbit = Orbit {
+            center: Vec3::ZERO,
+            radius: 1.0,
+            look_height: 0.0,
+            vfov_degrees: 40.0,
+        };
+        let cam = Camera::look_at(Vec3::Y * 0.2, Vec3::X, Vec3::Y, 40.0);
+        let scene = b.build("two", cam, orbit).unwrap();
+        assert_eq!(scene.emitter_count(), 2);
+        // Midpoint quadrature of L cos cos / d^2 over each square.
+        let quad = |x0: f32, z0: f32, s: f32, y: f32, l: f32| {
+            let k = 400;
+            let da = (s / k as f32) * (s / k as f32);
+            let mut e = 0.0f64;
+            for i in 0..k {
+                for j in 0..k {
+                    let p = v(
+                        x0 + s * (i as f32 + 0.5) / k as f32,
+                        y,
+                        z0 + s * (j as f32 + 0.5) / k as f32,
+                    );
+                    let d2 = p.length_squared();
+                    let cos = y / d2.sqrt();
+                    e += f64::from(l * cos * cos / d2 * da);
+                }
+            }
+            e as f32
+        };
+        let expected = quad(-0.5, -0.5, 1.0, 0.5, 1.0) + quad(3.0, -1.0, 2.0, 3.0, 4.0);
+        let mut rng = Rng::new(11);
+        let mut rays = RayCounts::default();
+        for samples in [1, 8] {
+            let calls = 65_536 / samples;
+            let mean = (0..calls)
+                .map(|_| {
+                    direct_irradiance(
+                        &scene,
+                        Vec3::ZERO,
+                        Vec3::Y,
+                        samples,
+                        1e-4,
+                        &mut rng,
+                        &mut rays,
+                    )
+                    .x
+                })
+                .sum::<f32>()
+                / calls as f32;
+            assert!(
+                (mean - expected).abs() < 0.01 * expected,
+                "{samples} samples: {mean} vs {expected}"
             );
         }
     }

@@ -6,6 +6,7 @@
 //! * [`scenes`] — the paper's five scenes, all real models: the Cornell box from the published
 //!   data, Sponza, the Conference Room, the Office and its Desk view, compiled in from `scenes/`
 //!   (`scenes/README.md`; `paper-notes.md`, section "The renderer and its five scenes");
+//! * [`lights`] — the area lights grouped into emitters, chosen per point by power over distance;
 //! * [`obj`] — Wavefront OBJ/MTL loading for user scenes;
 //! * [`camera`] — pinhole camera and the orbit of the paper's animations;
 //! * [`sampler`] — per-pixel deterministic random numbers;
@@ -40,6 +41,7 @@ pub mod camera;
 pub mod cli;
 pub mod film;
 pub mod integrator;
+pub mod lights;
 pub mod obj;
 pub mod parallel;
 pub mod sampler;

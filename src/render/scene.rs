@@ -2,6 +2,7 @@
 //! (obvhs's compressed wide BVH, built once per scene) that answers closest-hit and shadow queries.
 
 use super::camera::{Camera, Orbit};
+use super::lights::{Light, LightChoice, LightSample, Lights};
 use glam::{Vec3, Vec3A};
 use obvhs::cwbvh::{builder::build_cwbvh_from_tris, CwBvh};
 use obvhs::ray::{Ray, RayHit};
@@ -176,35 +177,25 @@ impl SceneBuilder {
             },
         );
         // Lights: every emissive triangle of the *input* (not the BVH copy, which may repeat a
-        // triangle under spatial splits), chosen with probability proportional to its power.
+        // triangle under spatial splits), grouped into emitters ([`Lights`]).
         let mut lights = Vec::new();
-        let mut cdf = Vec::new();
-        let mut total = 0.0f64;
         for (t, &m) in triangles.iter().zip(&material_of) {
             let mat = self.materials[m as usize];
             if mat.is_emissive() {
                 let (a, b, c) = (Vec3::from(t.v0), Vec3::from(t.v1), Vec3::from(t.v2));
                 let cross = (b - a).cross(c - a);
-                let area = 0.5 * cross.length();
-                let power = f64::from(luminance(mat.emission) * area);
-                total += power;
                 lights.push(Light {
                     corners: [a, b, c],
                     normal: cross.normalize(),
-                    area,
+                    area: 0.5 * cross.length(),
                     emission: mat.emission,
-                    pdf: 0.0,
                 });
-                cdf.push(total);
             }
         }
         if lights.is_empty() {
             return Err(SceneError::NoLights(name.to_owned()));
         }
-        for (l, c) in lights.iter_mut().zip(cdf.iter_mut()) {
-            *c /= total;
-            l.pdf = (f64::from(luminance(l.emission) * l.area) / total) as f32;
-        }
+        let lights = Lights::new(lights);
         Ok(Scene {
             name: name.to_owned(),
             input_triangles: triangles.len(),
@@ -212,7 +203,6 @@ impl SceneBuilder {
             materials: self.materials,
             bvh,
             lights,
-            light_cdf: cdf,
             bounds: (lo, hi),
             camera,
             orbit,
@@ -230,30 +220,6 @@ struct Tri {
     geometry: Triangle,
     normal: Vec3,
     material: MaterialId,
-}
-
-/// An emissive triangle.
-#[derive(Clone, Copy, Debug)]
-pub struct Light {
-    corners: [Vec3; 3],
-    normal: Vec3,
-    area: f32,
-    emission: Vec3,
-    /// Probability of choosing this light.
-    pdf: f32,
-}
-
-/// A sampled point on a light.
-#[derive(Clone, Copy, Debug)]
-pub struct LightSample {
-    /// The point.
-    pub point: Vec3,
-    /// The light's emitting normal.
-    pub normal: Vec3,
-    /// Emitted radiance.
-    pub emission: Vec3,
-    /// Probability density of the sample per unit area (light choice included).
-    pub pdf_area: f32,
 }
 
 /// A ray's closest hit.
@@ -274,8 +240,7 @@ pub struct Scene {
     tris: Vec<Tri>,
     materials: Vec<Material>,
     bvh: CwBvh,
-    lights: Vec<Light>,
-    light_cdf: Vec<f64>,
+    lights: Lights,
     bounds: (Vec3, Vec3),
     camera: Camera,
     orbit: Orbit,
@@ -286,7 +251,7 @@ impl fmt::Debug for Scene {
         f.debug_struct("Scene")
             .field("name", &self.name)
             .field("triangles", &self.input_triangles)
-            .field("lights", &self.lights.len())
+            .field("lights", &self.lights.triangles().len())
             .field("bounds", &self.bounds)
             .finish_non_exhaustive()
     }
@@ -321,13 +286,14 @@ impl Scene {
 
     /// Emissive triangles.
     pub fn light_count(&self) -> usize {
-        self.lights.len()
+        self.lights.triangles().len()
     }
 
     /// The smallest luminance an emitter has: a diffuse surface lit by the scene reflects less than
     /// this (its albedo is below 1), so pixels above it see an emitter.
     pub fn min_emitter_luminance(&self) -> f32 {
         self.lights
+            .triangles()
             .iter()
             .map(|l| luminance(l.emission))
             .fold(f32::INFINITY, f32::min)
@@ -336,13 +302,14 @@ impl Scene {
     /// Each emissive triangle's centroid and emitting (unit) normal.
     pub fn emitters(&self) -> impl Iterator<Item = (Vec3, Vec3)> + '_ {
         self.lights
+            .triangles()
             .iter()
             .map(|l| ((l.corners[0] + l.corners[1] + l.corners[2]) / 3.0, l.normal))
     }
 
     /// Total area of the emissive triangles.
     pub fn light_area(&self) -> f32 {
-        self.lights.iter().map(|l| l.area).sum()
+        self.lights.triangles().iter().map(|l| l.area).sum()
     }
 
     /// Axis-aligned bounds `(min, max)`.
@@ -403,23 +370,21 @@ impl Scene {
             .ray_traverse_miss(ray, |r, id| self.tris[id].geometry.intersect(r))
     }
 
-    /// The light point for the uniform numbers `u` in `[0, 1)^3`: `u[0]` chooses the light (by
-    /// power), `u[1]` and `u[2]` the point on it (uniform in area). Stratifying `u` stratifies the
-    /// samples.
+    /// The emitter probabilities at `x` with unit facing normal `n` ([`Lights::choice`]).
     #[inline]
-    pub fn light_at(&self, u: [f32; 3]) -> LightSample {
-        let i = self
-            .light_cdf
-            .partition_point(|&c| c <= f64::from(u[0]))
-            .min(self.lights.len() - 1);
-        let l = &self.lights[i];
-        let (s, t) = (u[1].sqrt(), u[2]);
-        let [a, b, c] = l.corners;
-        LightSample {
-            point: a * (1.0 - s) + b * (s * (1.0 - t)) + c * (s * t),
-            normal: l.normal,
-            emission: l.emission,
-            pdf_area: l.pdf / l.area,
-        }
+    pub fn light_choice(&self, x: Vec3, n: Vec3) -> LightChoice {
+        self.lights.choice(x, n)
+    }
+
+    /// The light point for the uniform numbers `u` in `[0, 1)^3` under `choice`
+    /// ([`Lights::sample`]); `None` when no emitter can light the point.
+    #[inline]
+    pub fn light_sample(&self, choice: &LightChoice, u: [f32; 3]) -> Option<LightSample> {
+        self.lights.sample(choice, u)
+    }
+
+    /// Emitters: touching emissive triangles of one radiance.
+    pub fn emitter_count(&self) -> usize {
+        self.lights.emitter_count()
     }
 }
