@@ -47,6 +47,8 @@ struct Emitter {
     power: f32,
     /// The normal every triangle shares, when they do.
     normal: Option<Vec3>,
+    /// Every corner lies in the plane through `center` normal to `normal`.
+    flat: bool,
     first: usize,
     count: usize,
 }
@@ -84,13 +86,15 @@ pub struct LightChoice {
     len: usize,
     /// Choice by power ([`Lights::by_power`]) instead of `cdf`.
     by_power: bool,
-    /// Some emitter that can light the point is within [`NEAR`] of its bounding radius.
+    /// Some emitter that can light the point is near it ([`NEAR`]).
     near: bool,
 }
 
-/// An emitter is near a point closer than this many of its bounding radii: there one point
-/// sample's geometry term `cos cos / d^2` varies by an order of magnitude over the emitter.
-pub const NEAR: f32 = 4.0;
+/// An emitter is near a point when its farthest point may be more than this many times as far as
+/// its nearest (bounds: `d + r` against `max(d - r, h)`, `d` the distance to its centre, `r` its
+/// bounding radius, `h` the distance to its plane when it is flat): one point sample's
+/// `1 / dist^2` then varies by more than 4x over the emitter.
+pub const NEAR: f32 = 2.0;
 
 impl LightChoice {
     /// True when an emitter that can light the point is near it ([`NEAR`]): single light
@@ -168,11 +172,18 @@ impl Lights {
                 .iter()
                 .all(|l| l.normal.dot(n0) > 0.9999)
                 .then_some(n0);
+            let flat = normal.is_some_and(|nl| {
+                group
+                    .iter()
+                    .flat_map(|l| l.corners)
+                    .all(|p| nl.dot(p - center).abs() <= 1e-5 * radius.max(1e-12))
+            });
             emitters.push(Emitter {
                 center,
                 radius,
                 power: power as f32,
                 normal,
+                flat,
                 first: start,
                 count: end - start,
             });
@@ -230,11 +241,21 @@ impl Lights {
             // No point of the emitter lies above x's tangent plane, or (flat emitters) x lies
             // behind every point of it: it cannot light x.
             let behind_x = n.dot(d) <= -e.radius;
-            let behind_light = e.normal.is_some_and(|nl| nl.dot(-d) <= -e.radius);
+            let behind_light = match (e.flat, e.normal) {
+                (true, Some(nl)) => nl.dot(-d) <= 0.0,
+                (false, Some(nl)) => nl.dot(-d) <= -e.radius,
+                _ => false,
+            };
             if !(behind_x || behind_light) {
                 let d2 = d.length_squared();
                 total += e.power / d2.max(e.radius * e.radius).max(1e-12);
-                choice.near |= d2 < (NEAR * e.radius) * (NEAR * e.radius);
+                let dist = d2.sqrt();
+                let plane = match (e.flat, e.normal) {
+                    (true, Some(nl)) => nl.dot(-d).abs(),
+                    _ => 0.0,
+                };
+                let nearest = (dist - e.radius).max(plane);
+                choice.near |= dist + e.radius > NEAR * nearest;
             }
             choice.cdf[k] = total;
         }
@@ -348,6 +369,19 @@ mod tests {
         // Above the lights (behind them): nothing either.
         let above = lights.choice(Vec3::new(0.5, 2.0, 0.5), -Vec3::Y);
         assert!(lights.sample(&above, [0.3, 0.5, 0.5]).is_none());
+    }
+
+    #[test]
+    fn near_means_the_inverse_square_varies_over_the_emitter() {
+        let lights = three();
+        // Just below the first square's edge (x = 0), 5 cm down: near.
+        assert!(lights.choice(Vec3::new(-0.05, 0.95, 0.5), Vec3::X).near());
+        // 10 below a unit square: 1 / dist^2 varies by a few percent over it.
+        let far = Lights::new(lights.triangles()[..2].to_vec());
+        assert!(!far.choice(Vec3::new(0.5, -9.0, 0.5), Vec3::Y).near());
+        // A point in the plane of a flat emitter, beside it, cannot see its lit side: no weight.
+        let side = far.choice(Vec3::new(3.0, 1.0, 0.5), -Vec3::X);
+        assert!(far.sample(&side, [0.5, 0.5, 0.5]).is_none());
     }
 
     #[test]
