@@ -5,9 +5,10 @@
 //! **Convention** (no light is counted twice). A pixel's outgoing radiance at a diffuse point `x` is
 //! `L_e(x) + albedo(x) / pi * (E_direct(x) + E_indirect(x))`, where
 //! * `E_direct` is the irradiance from the emissive triangles, estimated by sampling points on
-//!   them (chosen by power) with one shadow ray each;
+//!   them (emitter by power over distance, [`crate::render::lights`]) with one shadow ray each;
 //! * `E_indirect` is the irradiance from *reflected* light only: a hemisphere ray that hits a
-//!   surface `y` brings `L_i = albedo(y) / pi * E_direct(y)` (one light sample at `y`). The emission
+//!   surface `y` brings `L_i = albedo(y) / pi * E_direct(y)` (one light sample at `y`, stratified
+//!   across the estimate's cells; [`NEAR_HIT_SAMPLES`] next to an emitter). The emission
 //!   of a light the hemisphere ray happens to hit is *not* added, since `E_direct` already
 //!   accounts for every light. There is no further bounce (no cache recursion).
 //!
@@ -601,7 +602,6 @@ mod tests {
     /// A floor at y = 0 and a red wall of height `h` at x = 1 (infinite in z), lit by a panel
     /// above the floor at x < 0.
     fn wall_scene(h: f32) -> Scene {
-        use crate::render::camera::{Camera, Orbit};
         use crate::render::scene::{Material, SceneBuilder};
         let mut b = SceneBuilder::new();
         let white = b.material(Material::diffuse(Vec3::splat(0.5)));
@@ -609,13 +609,6 @@ mod tests {
         let light = b.material(Material::light(Vec3::splat(10.0)));
         let big = 50.0;
         let v = Vec3::new;
-        b.quad(
-            v(-big, 0.0, -big),
-            v(-big, 0.0, big),
-            v(big, 0.0, big),
-            v(big, 0.0, -big),
-            white,
-        );
         b.quad(
             v(1.0, 0.0, -big),
             v(1.0, h, -big),
@@ -630,14 +623,7 @@ mod tests {
             v(-1.0, 3.0, 1.0),
             light,
         );
-        let camera = Camera::look_at(Vec3::ZERO, Vec3::X, Vec3::Y, 40.0);
-        let orbit = Orbit {
-            center: Vec3::ZERO,
-            radius: 1.0,
-            look_height: 0.0,
-            vfov_degrees: 40.0,
-        };
-        b.build("wall", camera, orbit).unwrap()
+        with_floor(b, "wall", white, big, Vec3::ZERO)
     }
 
     #[test]
@@ -666,9 +652,36 @@ mod tests {
         }
     }
 
+    /// Adds a floor at y = 0 (half-size `big`, material `floor`) and builds the scene with a camera
+    /// at `eye` looking along +x.
+    fn with_floor(
+        mut b: crate::render::scene::SceneBuilder,
+        name: &str,
+        floor: crate::render::scene::MaterialId,
+        big: f32,
+        eye: Vec3,
+    ) -> Scene {
+        use crate::render::camera::{Camera, Orbit};
+        let v = Vec3::new;
+        b.quad(
+            v(-big, 0.0, -big),
+            v(-big, 0.0, big),
+            v(big, 0.0, big),
+            v(big, 0.0, -big),
+            floor,
+        );
+        let orbit = Orbit {
+            center: Vec3::ZERO,
+            radius: 1.0,
+            look_height: 0.0,
+            vfov_degrees: 40.0,
+        };
+        b.build(name, Camera::look_at(eye, Vec3::X, Vec3::Y, 40.0), orbit)
+            .unwrap()
+    }
+
     #[test]
     fn choice_by_distance_is_unbiased_between_two_emitters() {
-        use crate::render::camera::{Camera, Orbit};
         use crate::render::scene::{Material, SceneBuilder};
         // A near 1 x 1 emitter 0.5 above the point and a far, brighter 2 x 2 one 3 above and 4 to
         // the side, both facing down: the emitters are chosen by power over distance, not by
@@ -689,21 +702,7 @@ mod tests {
         };
         down(&mut b, -0.5, -0.5, 1.0, 0.5, near);
         down(&mut b, 3.0, -1.0, 2.0, 3.0, far);
-        b.quad(
-            v(-50.0, 0.0, -50.0),
-            v(-50.0, 0.0, 50.0),
-            v(50.0, 0.0, 50.0),
-            v(50.0, 0.0, -50.0),
-            floor,
-        );
-        let orbit = Orbit {
-            center: Vec3::ZERO,
-            radius: 1.0,
-            look_height: 0.0,
-            vfov_degrees: 40.0,
-        };
-        let cam = Camera::look_at(Vec3::Y * 0.2, Vec3::X, Vec3::Y, 40.0);
-        let scene = b.build("two", cam, orbit).unwrap();
+        let scene = with_floor(b, "two", floor, 50.0, Vec3::Y * 0.2);
         assert_eq!(scene.emitter_count(), 2);
         // Midpoint quadrature of L cos cos / d^2 over each square.
         let quad = |x0: f32, z0: f32, s: f32, y: f32, l: f32| {
@@ -753,7 +752,6 @@ mod tests {
 
     #[test]
     fn direct_irradiance_matches_the_form_factor_of_a_square() {
-        use crate::render::camera::{Camera, Orbit};
         use crate::render::scene::{Material, SceneBuilder};
         // A 4 x 4 emitter of radiance 1 one unit above the point, centred: four 2 x 2 corner
         // rectangles, each with the parallel-rectangle form factor
@@ -771,26 +769,7 @@ mod tests {
             v(-a, 1.0, a),
             light,
         );
-        b.quad(
-            v(-big, 0.0, -big),
-            v(-big, 0.0, big),
-            v(big, 0.0, big),
-            v(big, 0.0, -big),
-            floor,
-        );
-        let orbit = Orbit {
-            center: Vec3::ZERO,
-            radius: 1.0,
-            look_height: 0.0,
-            vfov_degrees: 40.0,
-        };
-        let scene = b
-            .build(
-                "square",
-                Camera::look_at(Vec3::Y * 0.5, Vec3::X, Vec3::Y, 40.0),
-                orbit,
-            )
-            .unwrap();
+        let scene = with_floor(b, "square", floor, big, Vec3::Y * 0.5);
         let x = a / (1.0 + a * a).sqrt();
         let corner = (2.0 * x * (a / (1.0 + a * a).sqrt()).atan()) / (2.0 * PI);
         let expected = PI * 4.0 * corner;
