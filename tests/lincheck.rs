@@ -14,7 +14,7 @@ use wfic::cache::{
     CacheConfig, CacheHandle, CasFailure, Inserted, IrradianceCache, Locked, MutexFlavour,
     RwLockFlavour, WaitFree,
 };
-use wfic::ic::{InsertError, Interpolated, Record, RecordId, WorkerId};
+use wfic::ic::{InsertError, Interpolated, Record, RecordId, Selection, WorkerId};
 use wfic::lincheck::{
     self, check, check_set_consistency, shrink, shrink_nonlinearizable, CacheOp, CacheRet,
     CacheSpec, History, HistoryBuilder, InsertId, Recorder, RecordingHandle, SetViolation,
@@ -479,6 +479,10 @@ impl<H: CacheHandle> CacheHandle for DropsEveryThird<H> {
         }
     }
 
+    fn remove(&mut self, selection: &Selection) -> usize {
+        self.inner.remove(selection)
+    }
+
     fn valid_records(&mut self, point: Vec3, normal: Vec3, out: &mut Vec<Record>) {
         self.inner.valid_records(point, normal, out)
     }
@@ -740,6 +744,10 @@ impl<H: CacheHandle> CacheHandle for SeesDouble<H> {
 
     fn insert(&mut self, record: Record) -> Result<Inserted, InsertError> {
         self.inner.insert(record)
+    }
+
+    fn remove(&mut self, selection: &Selection) -> usize {
+        self.inner.remove(selection)
     }
 
     fn valid_records(&mut self, point: Vec3, normal: Vec3, out: &mut Vec<Record>) {
@@ -1083,6 +1091,10 @@ impl<H: CacheHandle> CacheHandle for ReturnsLate<'_, H> {
             thread::yield_now();
         }
         result
+    }
+
+    fn remove(&mut self, selection: &Selection) -> usize {
+        self.inner.remove(selection)
     }
 
     fn valid_records(&mut self, point: Vec3, normal: Vec3, out: &mut Vec<Record>) {

@@ -10,7 +10,7 @@ mod loom_common;
 
 use loom_common::models::*;
 use loom_common::{expect_failure, model_outcomes};
-use wfic::cache::wf::orderings::{PaperLiteral, Site, Unhelped, Weakened};
+use wfic::cache::wf::orderings::{BlindRemove, PaperLiteral, Site, Unhelped, Weakened};
 use wfic::cache::CasFailure;
 
 /// The kinds of causality report loom 0.7 gives (`loom/src/rt/cell.rs`, `rt/atomic.rs`) that our
@@ -386,5 +386,36 @@ fn relaxed_child_cas_failure_is_harmless_with_discard() {
     assert!(
         lost > 0 && won > 0,
         "both outcomes of the race must be explored"
+    );
+}
+
+/// Removal without its compare-and-swap (`BlindRemove`: the slot's state loaded, then "removed"
+/// stored): two overlapping removals can both see the shared record live and both count it. The
+/// model's own assertion, not a causality report: nothing is read unordered, the count is wrong.
+#[test]
+fn a_blind_removal_counts_a_record_twice() {
+    let message = expect_failure(|| {
+        two_removals_of_overlapping_sets::<BlindRemove>();
+    });
+    eprintln!("blind removal: {}", message.trim());
+    assert!(
+        message.contains("a record was removed twice, or not at all"),
+        "expected the model's assertion, got: {message}"
+    );
+}
+
+/// A removal reads the record of every live slot it meets to test its selection, under the
+/// scan's Acquire load of the state (SlotRead): relaxed, that read races the writer's. Caught by
+/// the removal that races an insert into its list, by loom's report on the record's cell.
+#[test]
+fn relaxed_slot_read_is_caught_by_a_removal() {
+    let m = expect_failure(|| {
+        removal_races_an_insert_into_one_list::<Weakened<SLOT_READ>>();
+    });
+    assert_race(
+        "SlotRead (removal)",
+        &m,
+        Race::ReadAfterUnorderedWrite,
+        Made::InList,
     );
 }

@@ -189,3 +189,58 @@ fn a_full_list_refuses_the_next_insert() {
         assert_eq!(found.map(|f| f.records), Some(14), "{found:?}");
     });
 }
+
+/// Removal racing a lookup of the record it removes: the lookup sees it whole or not at all.
+#[test]
+fn removal_races_lookup_of_the_same_record_minimal() {
+    let (saw, not) = model_outcomes(removal_races_lookup_of_the_same_record::<Minimal>);
+    assert!(
+        saw > 0,
+        "the lookup never saw the record before its removal"
+    );
+    assert!(not > 0, "the lookup always saw the record");
+}
+
+/// Removal racing an insert into the same list: the racing record is taken or stays, never both.
+#[test]
+fn removal_races_an_insert_into_one_list_minimal() {
+    let (took, left) = model_outcomes(removal_races_an_insert_into_one_list::<Minimal>);
+    assert!(took > 0, "the removal never met the racing record");
+    assert!(left > 0, "the removal always met the racing record");
+}
+
+/// Removal racing the graft of a subtree below it, then reclamation at the frame's close.
+#[test]
+fn removal_races_a_graft_below_it_minimal() {
+    let (took, left) = model_outcomes(removal_races_a_graft_below_it::<Minimal>);
+    assert!(took > 0, "the removal never met the grafted record");
+    assert!(left > 0, "the removal always met the grafted record");
+}
+
+/// Two removals of overlapping sets: every record counted once, by either of them.
+#[test]
+fn two_removals_of_overlapping_sets_minimal() {
+    let (first, second) = model_outcomes(two_removals_of_overlapping_sets::<Minimal>);
+    assert!(first > 0, "the point removal never took the shared record");
+    assert!(second > 0, "the box removal never took the shared record");
+}
+
+/// A removal that happens-before a lookup is seen by it, with the Relaxed compare-and-swap.
+#[test]
+fn a_removal_that_happens_before_a_lookup_is_seen_minimal() {
+    let (flagged, not) = model_outcomes(a_removal_that_happens_before_a_lookup_is_seen::<Minimal>);
+    assert!(flagged > 0, "the lookup never saw the flag");
+    assert!(not > 0, "the lookup always saw the flag");
+}
+
+/// SlotRemove is Relaxed in the shipped policy and cannot be weakened further; the removal models
+/// above pass with it, and with the stronger policies too.
+#[test]
+fn the_removal_models_pass_with_seqcst_everywhere() {
+    model(|| {
+        two_removals_of_overlapping_sets::<SeqCstEverywhere>();
+    });
+    model(|| {
+        removal_races_a_graft_below_it::<SeqCstEverywhere>();
+    });
+}

@@ -18,6 +18,9 @@
 //! drop(handle);
 //! ```
 //!
+//! Removal ([`CacheHandle::remove`]) follows the same rule: a worker removes its own local records
+//! at once, and the global octree's at the merge, before the frame's local records join it.
+//!
 //! A worker's local records reach the merge however its handle ends: dropped at the end of its
 //! work, or unwound by a panic (the records it holds were each inserted whole).
 //!
@@ -26,12 +29,12 @@
 //! would answer from one of the two caches. Here one lookup averages the valid records of both,
 //! which is exactly what a single merged cache would answer.
 
-use super::frame::Ledger;
+use super::frame::{Ledger, Local};
 use super::{
     collect_valid, CacheConfig, CacheHandle, CacheStats, FrameReport, HandleCore, Inserted,
     IrradianceCache, Octree, WorkerStats,
 };
-use crate::ic::{InsertError, Interpolated, Record, WorkerId};
+use crate::ic::{InsertError, Interpolated, Record, Selection, WorkerId};
 use glam::Vec3;
 use std::time::Instant;
 
@@ -39,8 +42,24 @@ use std::time::Instant;
 #[derive(Debug)]
 pub struct LocalWrite {
     global: Octree,
-    ledger: Ledger<Octree>,
+    ledger: Ledger<Pending>,
     stats: CacheStats,
+}
+
+/// What an LW worker keeps for the merge: its local octree and the removals it asked for.
+#[derive(Debug)]
+pub(crate) struct Pending {
+    tree: Octree,
+    removals: Vec<(Selection, u64)>,
+}
+
+impl Local for Pending {
+    fn take(&mut self) -> Self {
+        Self {
+            tree: self.tree.take(),
+            removals: std::mem::take(&mut self.removals),
+        }
+    }
 }
 
 impl LocalWrite {
@@ -60,7 +79,7 @@ impl LocalWrite {
 #[must_use = "a handle does nothing unless it is used"]
 pub struct LwHandle<'c> {
     global: &'c Octree,
-    core: HandleCore<'c, Octree>,
+    core: HandleCore<'c, Pending>,
 }
 
 impl IrradianceCache for LocalWrite {
@@ -77,15 +96,32 @@ impl IrradianceCache for LocalWrite {
     fn handle(&self, worker: WorkerId) -> LwHandle<'_> {
         LwHandle {
             global: &self.global,
-            core: HandleCore::new(&self.ledger, worker, Octree::new(*self.global.config())),
+            core: HandleCore::new(
+                &self.ledger,
+                worker,
+                Pending {
+                    tree: Octree::new(*self.global.config()),
+                    removals: Vec::new(),
+                },
+            ),
         }
     }
 
     fn end_frame(&mut self) -> FrameReport {
         let (deposits, mut report) = self.ledger.close_frame(&mut self.stats);
         let start = Instant::now();
+        // The removals first: they were asked for before (or while) the frame's local records
+        // were computed, and each worker already applied its own to its local octree.
+        let mut removed = 0;
         for deposit in &deposits {
-            for record in deposit.local.records() {
+            for (selection, frame) in &deposit.local.removals {
+                removed += self.global.remove(selection, *frame) as u64;
+            }
+        }
+        report.workers.removed += removed;
+        self.stats.totals.removed += removed;
+        for deposit in &deposits {
+            for record in deposit.local.tree.records() {
                 // Admitted by the handle already: same bounds, validated and sealed.
                 self.global.insert_admitted(*record);
             }
@@ -93,6 +129,12 @@ impl IrradianceCache for LocalWrite {
         report.merge = start.elapsed();
         self.stats.merge += report.merge;
         report
+    }
+
+    fn remove(&mut self, selection: &Selection) -> usize {
+        let removed = self.global.remove(selection, self.stats.frames);
+        self.stats.totals.removed += removed as u64;
+        removed
     }
 
     fn snapshot(&mut self) -> Vec<Record> {
@@ -123,20 +165,33 @@ impl CacheHandle for LwHandle<'_> {
             acc.add(r);
         };
         let mut work = self.global.walk(point, |k| pre.admits(k), &mut add);
-        if !self.core.local.is_empty() {
-            work += self.core.local.walk(point, |k| pre.admits(k), &mut add);
+        if !self.core.local.tree.is_empty() {
+            work += self
+                .core
+                .local
+                .tree
+                .walk(point, |k| pre.admits(k), &mut add);
         }
         self.core.end_lookup(&acc, work)
     }
 
     fn insert(&mut self, record: Record) -> Result<Inserted, InsertError> {
         let record = self.core.admit(self.global.config(), record)?;
-        let steps = self.core.local.insert_admitted(record);
+        let steps = self.core.local.tree.insert_admitted(record);
         Ok(self.core.inserted(Inserted::Stored(record.id()), steps))
     }
 
+    fn remove(&mut self, selection: &Selection) -> usize {
+        let frame = self.core.frame;
+        let local = &mut self.core.local;
+        let removed = local.tree.remove(selection, frame);
+        local.removals.push((*selection, frame));
+        self.core.stats.removed += removed as u64;
+        removed
+    }
+
     fn valid_records(&mut self, point: Vec3, normal: Vec3, out: &mut Vec<Record>) {
-        let (global, local) = (self.global, &self.core.local);
+        let (global, local) = (self.global, &self.core.local.tree);
         // As a lookup does: the local octree only once it holds a record.
         let work = collect_valid(global.config(), point, normal, out, |pre, f| {
             let mut work = global.walk(pre.point(), |k| pre.admits(k), &mut |r| f(r));

@@ -11,7 +11,7 @@ use super::{
     collect_valid, CacheConfig, CacheHandle, CacheStats, FrameReport, HandleCore, Inserted,
     IrradianceCache, Octree, WorkerStats,
 };
-use crate::ic::{InsertError, Interpolated, Record, WorkerId};
+use crate::ic::{InsertError, Interpolated, Record, Selection, WorkerId};
 use crate::sync::{
     try_unpoison, unpoison, Mutex, MutexGuard, RwLock, RwLockReadGuard, RwLockWriteGuard,
 };
@@ -185,6 +185,13 @@ impl<F: LockFlavour> IrradianceCache for Locked<F> {
         self.ledger.close_frame(&mut self.stats).1
     }
 
+    fn remove(&mut self, selection: &Selection) -> usize {
+        let now = self.stats.frames;
+        let removed = self.tree.get_mut().remove(selection, now);
+        self.stats.totals.removed += removed as u64;
+        removed
+    }
+
     fn snapshot(&mut self) -> Vec<Record> {
         self.tree.get_mut().records().copied().collect()
     }
@@ -234,6 +241,20 @@ impl<F: LockFlavour> CacheHandle for LckHandle<'_, F> {
             guard.insert_admitted(record)
         };
         Ok(self.core.inserted(Inserted::Stored(record.id()), steps))
+    }
+
+    fn remove(&mut self, selection: &Selection) -> usize {
+        let tree = &self.cache.tree;
+        let removed = {
+            let mut guard = acquire(
+                &mut self.core.stats.lock_wait,
+                || tree.try_write(),
+                || tree.write(),
+            );
+            guard.remove(selection, self.core.frame)
+        };
+        self.core.stats.removed += removed as u64;
+        removed
     }
 
     fn valid_records(&mut self, point: Vec3, normal: Vec3, out: &mut Vec<Record>) {

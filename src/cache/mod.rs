@@ -36,7 +36,9 @@ pub use scheme::{CacheJob, Rgb8, Scheme};
 pub use sequential::{Octree, SeqHandle, Sequential};
 pub use wf::{CasFailure, WaitFree, WfHandle};
 
-use crate::ic::{self, Accumulator, InsertError, Interpolated, Record, RecordId, WorkerId};
+use crate::ic::{
+    self, Accumulator, InsertError, Interpolated, Record, RecordId, Selection, WorkerId,
+};
 use frame::{Deposit, Ledger, Local};
 use glam::Vec3;
 use octree::{Cell, Geometry};
@@ -178,6 +180,9 @@ pub struct WorkerStats {
     pub discarded: u64,
     /// WF: compare-and-swaps on a child pointer that lost the race.
     pub cas_failures: u64,
+    /// Records this handle removed ([`CacheHandle::remove`]; for LW, only its own local ones:
+    /// the global ones are counted at the merge, in [`FrameReport::workers`]).
+    pub removed: u64,
     /// LCK: time spent waiting to acquire the lock.
     pub lock_wait: Duration,
     /// Most tree levels plus compare-and-swap attempts one insert took (WF's step bound).
@@ -207,6 +212,7 @@ impl AddAssign<&WorkerStats> for WorkerStats {
         self.stored += o.stored;
         self.discarded += o.discarded;
         self.cas_failures += o.cas_failures;
+        self.removed += o.removed;
         self.lock_wait += o.lock_wait;
         self.max_insert_steps = self.max_insert_steps.max(o.max_insert_steps);
         self.max_lookup_nodes = self.max_lookup_nodes.max(o.max_lookup_nodes);
@@ -283,6 +289,10 @@ pub trait IrradianceCache: Send + Sync {
     /// If a handle of the frame was leaked (`mem::forget`): its records would be lost.
     fn end_frame(&mut self) -> FrameReport;
 
+    /// Removes, between frames, every record `selection` takes out (ages counted from the next
+    /// frame, [`Selection::older_than`]) and reclaims their memory; returns how many.
+    fn remove(&mut self, selection: &Selection) -> usize;
+
     /// Every stored record (any order).
     fn snapshot(&mut self) -> Vec<Record>;
 
@@ -303,6 +313,22 @@ pub trait CacheHandle {
     /// Stores `record` (its id and check field are assigned here). Bad input is refused with a
     /// typed error and changes nothing.
     fn insert(&mut self, record: Record) -> Result<Inserted, InsertError>;
+
+    /// Removes, during the frame, every record `selection` takes out (ages counted from this
+    /// handle's frame); returns how many this call removed. What "every" means differs by scheme:
+    ///
+    /// * TRA, LCK: every record stored when the call takes the octree (TRA's handle holds it; LCK
+    ///   takes the write lock), so every later lookup misses them.
+    /// * LW: this worker's own local records at once; the global octree's at the merge
+    ///   ([`IrradianceCache::end_frame`], before the frame's local records join it), so until
+    ///   then every worker's lookups still use them. Returns the local count.
+    /// * WF: every record whose insert happens-before the call, concurrently with the other
+    ///   workers' lookups and inserts and wait-free (one compare-and-swap per selected record,
+    ///   never retried); a record inserted concurrently may stay. A lookup that happens-after the
+    ///   call never returns a record it removed (the exact guarantee: `paper-notes.md`,
+    ///   removal). Memory is reclaimed when the frame closes.
+    /// * none: nothing is stored, so nothing is removed.
+    fn remove(&mut self, selection: &Selection) -> usize;
 
     /// Appends to `out` every record a lookup at `point`/`normal` would use now (not counted as a
     /// lookup). For tests and diagnostics.
@@ -527,6 +553,7 @@ mod tests {
             stored: 6,
             discarded: 7,
             cas_failures: 8,
+            removed: 15,
             lock_wait: Duration::from_micros(9),
             max_insert_steps: 10,
             max_lookup_nodes: 3,
@@ -543,6 +570,7 @@ mod tests {
             stored: 600,
             discarded: 700,
             cas_failures: 800,
+            removed: 1500,
             lock_wait: Duration::from_micros(900),
             max_insert_steps: 2,
             max_lookup_nodes: 30,
@@ -563,6 +591,7 @@ mod tests {
                 stored: 606,
                 discarded: 707,
                 cas_failures: 808,
+                removed: 1515,
                 lock_wait: Duration::from_micros(909),
                 max_insert_steps: 10,
                 max_lookup_nodes: 30,

@@ -8,7 +8,7 @@ use super::{
     CacheConfig, CacheHandle, CacheStats, FrameReport, HandleCore, Inserted, IrradianceCache, Work,
     WorkerStats,
 };
-use crate::ic::{InsertError, Interpolated, Record, WorkerId};
+use crate::ic::{InsertError, Interpolated, Record, Selection, WorkerId};
 use glam::Vec3;
 
 /// A cache that keeps nothing: every lookup misses, every valid insert is
@@ -62,6 +62,10 @@ impl IrradianceCache for NoCache {
         self.ledger.close_frame(&mut self.stats).1
     }
 
+    fn remove(&mut self, _selection: &Selection) -> usize {
+        0
+    }
+
     fn snapshot(&mut self) -> Vec<Record> {
         Vec::new()
     }
@@ -85,6 +89,10 @@ impl CacheHandle for NoCacheHandle<'_> {
     fn insert(&mut self, record: Record) -> Result<Inserted, InsertError> {
         let record = self.core.admit(self.config, record)?;
         Ok(self.core.inserted(Inserted::NotCached(record.id()), 0))
+    }
+
+    fn remove(&mut self, _selection: &Selection) -> usize {
+        0
     }
 
     fn valid_records(&mut self, _point: Vec3, _normal: Vec3, _out: &mut Vec<Record>) {}

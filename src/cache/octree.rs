@@ -193,6 +193,14 @@ impl Geometry {
         HOLDING[(below | above << 3) as usize]
     }
 
+    /// The loose cell of the non-root node of `cell`, with the slack of [`Geometry::loose_contains`]:
+    /// the cube that holds the influence sphere of every record stored there.
+    #[inline]
+    pub fn loose_bounds(&self, cell: &Cell) -> (Vec3, Vec3) {
+        let reach = Vec3::splat(2.0 * cell.half + self.slack);
+        (cell.center - reach, cell.center + reach)
+    }
+
     /// True when a query at `p` must visit the node of `cell` (a non-root node).
     #[inline]
     pub fn loose_contains(&self, cell: &Cell, p: Vec3) -> bool {

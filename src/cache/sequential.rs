@@ -16,7 +16,7 @@ use super::{
     collect_valid, CacheConfig, CacheHandle, CacheStats, FrameReport, HandleCore, Inserted,
     IrradianceCache, Work, WorkerStats,
 };
-use crate::ic::{InsertError, Interpolated, Key, Prefilter, Record, WorkerId};
+use crate::ic::{InsertError, Interpolated, Key, Prefilter, Record, Selection, WorkerId};
 use crate::sync::{unpoison, Mutex, MutexGuard};
 use glam::Vec3;
 
@@ -159,6 +159,42 @@ impl Octree {
         }
     }
 
+    /// Removes every record `selection` takes out in frame `now` (frames closed so far); returns
+    /// how many. Visits only the nodes whose loose cell the selection may reach (the root always:
+    /// it keeps the records too large for any cell); keeps the order of the others.
+    pub fn remove(&mut self, selection: &Selection, now: u64) -> usize {
+        let accuracy = self.config.accuracy();
+        let geometry = *self.config.geometry();
+        let mut removed = 0;
+        let mut pending = vec![(0usize, self.config.root())];
+        while let Some((index, cell)) = pending.pop() {
+            if index != 0 {
+                let (lo, hi) = geometry.loose_bounds(&cell);
+                if !selection.may_select_within(lo, hi) {
+                    continue;
+                }
+            }
+            let node = &mut self.nodes[index];
+            let before = node.records.len();
+            let mut kept = 0;
+            for i in 0..before {
+                if !selection.selects(&node.records[i], accuracy, now) {
+                    node.records[kept] = node.records[i];
+                    node.keys[kept] = node.keys[i];
+                    kept += 1;
+                }
+            }
+            node.records.truncate(kept);
+            node.keys.truncate(kept);
+            removed += before - kept;
+            for octant in Octant::in_mask(node.occupied) {
+                pending.push((node.children[octant.index()] as usize, cell.child(octant)));
+            }
+        }
+        self.len -= removed;
+        removed
+    }
+
     /// Moves the records out, leaving an octree with no nodes that must only be dropped (what a
     /// dropped LW handle does with its local octree).
     fn take_all(&mut self) -> Self {
@@ -244,6 +280,13 @@ impl IrradianceCache for Sequential {
         self.ledger.close_frame(&mut self.stats).1
     }
 
+    fn remove(&mut self, selection: &Selection) -> usize {
+        let now = self.stats.frames;
+        let removed = self.tree_mut().remove(selection, now);
+        self.stats.totals.removed += removed as u64;
+        removed
+    }
+
     fn snapshot(&mut self) -> Vec<Record> {
         self.tree_mut().records().copied().collect()
     }
@@ -280,6 +323,12 @@ impl CacheHandle for SeqHandle<'_> {
         let record = self.core.admit(self.tree.config(), record)?;
         let steps = self.tree.insert_admitted(record);
         Ok(self.core.inserted(Inserted::Stored(record.id()), steps))
+    }
+
+    fn remove(&mut self, selection: &Selection) -> usize {
+        let removed = self.tree.remove(selection, self.core.frame);
+        self.core.stats.removed += removed as u64;
+        removed
     }
 
     fn valid_records(&mut self, point: Vec3, normal: Vec3, out: &mut Vec<Record>) {

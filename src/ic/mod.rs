@@ -8,8 +8,10 @@
 //! gradients). The paper this crate studies (Dubla et al., §2.1) uses them unchanged.
 
 mod record;
+mod selection;
 
 pub use record::{InsertError, Record, RecordId, WorkerId};
+pub use selection::{Selection, SelectionError};
 
 use glam::{DVec3, Vec3};
 

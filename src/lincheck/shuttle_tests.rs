@@ -218,6 +218,10 @@ impl<H: crate::cache::CacheHandle> crate::cache::CacheHandle for YieldsBeforeRet
         result
     }
 
+    fn remove(&mut self, selection: &crate::ic::Selection) -> usize {
+        self.0.remove(selection)
+    }
+
     fn valid_records(&mut self, point: Vec3, normal: Vec3, out: &mut Vec<Record>) {
         self.0.valid_records(point, normal, out)
     }

@@ -436,3 +436,181 @@ pub fn an_insert_that_happens_before_a_lookup_is_found<O: Orderings>(existing: b
     );
     flagged
 }
+
+// ---------------------------------------------------------------------------------------------
+// Removal (`CacheHandle::remove`): a slot goes from live to removed by one compare-and-swap.
+// ---------------------------------------------------------------------------------------------
+
+/// A selection taking every record whose influence meets the point `p`.
+fn at_point(p: Vec3) -> wfic::ic::Selection {
+    wfic::ic::Selection::touching(p, p).expect("a finite point")
+}
+
+/// Removes what `selection` takes through a fresh handle of worker `worker`; returns the count.
+pub fn remove_one<C: IrradianceCache>(
+    cache: &C,
+    worker: u32,
+    selection: &wfic::ic::Selection,
+) -> usize {
+    let mut h = cache.handle(WorkerId::new(worker));
+    let removed = h.remove(selection);
+    assert_eq!(h.stats().removed, removed as u64, "the handle miscounted");
+    drop(h);
+    removed
+}
+
+/// A removal races a lookup of the record it removes. The lookup finds the record whole or not
+/// at all, the removal takes it exactly once, and a lookup after both finds nothing. Returns
+/// whether the racing lookup found it.
+pub fn removal_races_lookup_of_the_same_record<O: Orderings>() -> bool {
+    let cache = wf::<O>(CasFailure::Adopt);
+    let r = root_record(0.0);
+    insert_one(&*cache, 0, r);
+    let c = cache.clone();
+    let t = Go::race(move || remove_one(&*c, 1, &at_point(r.position)));
+    let found = valid_at(&*cache, 2, r.position);
+    assert!(found.len() <= 1, "a record found twice");
+    let saw = found.first().is_some_and(|f| {
+        assert!(
+            f.is_intact() && f.position == r.position,
+            "torn or phantom record"
+        );
+        true
+    });
+    assert_eq!(
+        t.join().unwrap(),
+        1,
+        "the removal must take the record once"
+    );
+    assert!(
+        valid_at(&*cache, 3, r.position).is_empty(),
+        "a removed record was found after its removal"
+    );
+    saw
+}
+
+/// A removal races an insert into the same list (the root's). The record stored before the
+/// threads started is always removed; the racing one is removed or stays, never half of either:
+/// what stays is exactly what was not counted, and no removed record comes back (the writer's
+/// store of "live" cannot follow a removal, which only takes live slots). Returns whether the
+/// removal took the racing record too.
+pub fn removal_races_an_insert_into_one_list<O: Orderings>() -> bool {
+    let cache = wf::<O>(CasFailure::Adopt);
+    let (old, new) = (root_record(-0.5), root_record(0.5));
+    insert_one(&*cache, 0, old);
+    let c = cache.clone();
+    let t = Go::race(move || insert_one(&*c, 1, new));
+    let removed = remove_one(&*cache, 2, &at_point(Vec3::splat(2.0)));
+    t.join().unwrap();
+    assert!(removed == 1 || removed == 2, "removed {removed}");
+    let left = valid_at(&*cache, 3, Vec3::splat(2.0));
+    assert!(left.iter().all(|f| f.is_intact()), "torn record");
+    assert!(
+        left.iter().all(|f| f.position == new.position),
+        "the record stored before the race survived its removal"
+    );
+    assert_eq!(
+        left.len(),
+        2 - removed,
+        "stayed + removed must be both records"
+    );
+    removed == 2
+}
+
+/// A removal races an insert that grafts a new child below the node it is scanning. The record
+/// in the root is always removed; the grafted one is removed if the removal met it, else it
+/// stays. When the frame closes, reclamation frees the child exactly when its record was
+/// removed (loom reports a leak or a double free otherwise). Returns whether the grafted record
+/// was removed.
+pub fn removal_races_a_graft_below_it<O: Orderings>() -> bool {
+    let cache = wf::<O>(CasFailure::Adopt);
+    let (top, below) = (root_record(0.0), child_record(0.0));
+    insert_one(&*cache, 0, top);
+    let c = cache.clone();
+    let t = Go::race(move || insert_one(&*c, 1, below));
+    // The root record's influence covers the world; the child's reaches (1, 1, 1).
+    let removed = remove_one(&*cache, 2, &at_point(below.position));
+    t.join().unwrap();
+    assert!(removed == 1 || removed == 2, "removed {removed}");
+    let left = valid_at(&*cache, 3, below.position);
+    assert!(left.iter().all(|f| f.is_intact()), "torn record");
+    let stayed = left.iter().any(|f| f.position == below.position);
+    assert!(
+        left.iter().all(|f| f.position == below.position),
+        "the root record survived its removal"
+    );
+    assert_eq!(
+        stayed,
+        removed == 1,
+        "the grafted record both stayed and was counted"
+    );
+    let mut cache = Arc::try_unwrap(cache).expect("threads joined");
+    let report = cache.end_frame();
+    assert_eq!(report.workers.removed, removed as u64);
+    // Reclaimed: the child goes with its record; a surviving record keeps its path.
+    assert_eq!(
+        cache.stats().nodes,
+        if stayed { 2 } else { 1 },
+        "after reclamation"
+    );
+    assert_eq!(cache.stats().records, usize::from(stayed));
+    removed == 2
+}
+
+/// Two removals of overlapping sets race: one takes `a` only, the other `a` and `b`. Each
+/// record is counted by exactly one of them (the compare-and-swap), so the counts add up to two.
+/// Returns whether the first removal took `a`.
+pub fn two_removals_of_overlapping_sets<O: Orderings>() -> bool {
+    let cache = wf::<O>(CasFailure::Adopt);
+    // Depth-1 records 1.4 apart, each with influence 0.71: a point selects one, a box both.
+    let (a, b) = (record_at_depth(1, 0.3), record_at_depth(1, 1.7));
+    insert_one(&*cache, 0, a);
+    insert_one(&*cache, 1, b);
+    let both = wfic::ic::Selection::touching(a.position, b.position).unwrap();
+    let c = cache.clone();
+    let t = Go::race(move || remove_one(&*c, 2, &at_point(a.position)));
+    let second = remove_one(&*cache, 3, &both);
+    let first = t.join().unwrap();
+    assert!(first <= 1, "the point selection took {first}");
+    assert_eq!(
+        first + second,
+        2,
+        "a record was removed twice, or not at all"
+    );
+    for p in [a.position, b.position] {
+        assert!(
+            valid_at(&*cache, 4 + p.x as u32, p).is_empty(),
+            "a removed record was found"
+        );
+    }
+    first == 1
+}
+
+/// Happens-before: a removal completes, then its thread sets a flag with Release; a lookup that
+/// loaded the flag with Acquire and saw it must not find the record (the guarantee: a lookup that
+/// happens-after a removal never returns what it removed). The removal's compare-and-swap is
+/// Relaxed: write-read coherence alone makes the lookup's load of the slot see it. Returns
+/// whether the flag was seen.
+pub fn a_removal_that_happens_before_a_lookup_is_seen<O: Orderings>() -> bool {
+    let cache = wf::<O>(CasFailure::Adopt);
+    let r = record_at_depth(2, 0.3);
+    insert_one(&*cache, 0, r);
+    let flag = Arc::new(AtomicBool::new(false));
+    let (c, f) = (cache.clone(), flag.clone());
+    let t = thread::spawn(move || {
+        remove_one(&*c, 1, &at_point(r.position));
+        // Release: the removal happens-before any Acquire load that reads this `true`.
+        f.store(true, Ordering::Release);
+    });
+    // Acquire: pairs with the Release store above.
+    let flagged = flag.load(Ordering::Acquire);
+    let found = valid_at(&*cache, 2, r.position);
+    if flagged {
+        assert!(
+            found.is_empty(),
+            "a lookup that happens-after a removal found the record"
+        );
+    }
+    t.join().unwrap();
+    flagged
+}

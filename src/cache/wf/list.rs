@@ -30,13 +30,22 @@
 //!    touches a record only when its key passes the query's prefilter; both halves are written
 //!    before the flag's Release store, so the protocol is the same one flag per slot.
 //!
+//! 4. **Removal by tombstone.** A slot's flag is a state: unwritten, live (set with Release after
+//!    the record is written, as in 1), removed. A removal reads a live slot's record and, if its
+//!    selection takes it, moves the slot from live to removed with one compare-and-swap, never
+//!    retried: a failure means another removal took it first (counted once, by the winner), and a
+//!    slot still unwritten is never touched, so the writer's later store of "live" cannot bring a
+//!    removed record back. Readers take only live slots. The slots themselves are reclaimed when
+//!    the cache has `&mut` access (`compact`, at the frame's close): the live records move to a
+//!    fresh list, and no reader can exist.
+//!
 //! Every operation is wait-free: a push is one `fetch_add`, at most one segment compare-and-swap
 //! (never retried: if it fails, somebody else's segment is as good), one write and one store; a
 //! scan reads at most `head` slots.
 
 use super::orderings::{ord, Orderings, Site};
 use crate::ic::{Key, Record};
-use crate::sync::{AtomicBool, AtomicPtr, AtomicUsize, Ordering, Tracked, UnsafeCell};
+use crate::sync::{AtomicPtr, AtomicU8, AtomicUsize, Ordering, Tracked, UnsafeCell};
 use std::alloc::{self, Layout};
 use std::marker::PhantomData;
 use std::mem::{align_of, size_of, MaybeUninit};
@@ -73,12 +82,20 @@ pub(crate) const fn segment_len(segment: usize) -> usize {
     1 << (segment as u32 + BASE_SHIFT)
 }
 
-/// What a scan reads of every slot: the publication flag and the record's key.
+/// A slot's state: reserved (or not yet reserved) and not written.
+const UNWRITTEN: u8 = 0;
+/// A slot's state: its key and record are written, and no removal has taken it.
+const LIVE: u8 = 1;
+/// A slot's state: a removal took its record. Never left.
+const REMOVED: u8 = 2;
+
+/// What a scan reads of every slot: the publication state and the record's key.
 struct Hot {
-    /// Written once by the thread that reserved the slot, before `ready` is set.
+    /// Written once by the thread that reserved the slot, before `state` becomes [`LIVE`].
     key: UnsafeCell<MaybeUninit<Key>>,
-    /// Set (Release) once the key and the record are fully written; never cleared.
-    ready: AtomicBool,
+    /// [`UNWRITTEN`], then [`LIVE`] (stored with Release once the key and the record are fully
+    /// written), then perhaps [`REMOVED`] (by one compare-and-swap from `LIVE`). Never goes back.
+    state: AtomicU8,
     /// Under loom, a slot never freed — so a segment never freed — fails the model (`Allocation
     /// leaked.`); zero-sized elsewhere.
     _tracked: Tracked,
@@ -96,7 +113,7 @@ impl Hot {
     fn empty() -> Self {
         Self {
             key: UnsafeCell::new(MaybeUninit::uninit()),
-            ready: AtomicBool::new(false),
+            state: AtomicU8::new(UNWRITTEN),
             _tracked: Tracked::new(),
         }
     }
@@ -206,8 +223,8 @@ pub struct RecordList<O: Orderings> {
     _owns: PhantomData<(Segment, O)>,
 }
 
-// SAFETY: the list hands out `&Key` and `&Record` only from slots whose ready flag it loaded as
-// set, and a slot's key and record are written only by the single thread that reserved its index,
+// SAFETY: the list hands out `&Key` and `&Record` only from slots whose state it loaded as live
+// (or removed, which only a live slot becomes), and a slot's key and record are written only by the single thread that reserved its index,
 // before that thread sets the flag; after that they are never written again. So a shared `&RecordList` never
 // allows a write to race a read. Segments are freed only in `Drop` (`&mut self`).
 unsafe impl<O: Orderings> Sync for RecordList<O> {}
@@ -259,8 +276,9 @@ impl<O: Orderings> RecordList<O> {
         });
         if O::PUBLISH_SLOTS {
             // Release (SlotPublish): makes the key and record written above visible to any reader
-            // whose Acquire load in `scan` sees `true`.
-            hot.ready.store(true, ord::<O>(Site::SlotPublish));
+            // whose Acquire load in `scan` sees `LIVE`. A plain store, not a read-modify-write:
+            // no removal touches a slot before it is live, so nothing else can have written it.
+            hot.state.store(LIVE, ord::<O>(Site::SlotPublish));
         }
         Ok(index)
     }
@@ -336,6 +354,16 @@ impl<O: Orderings> RecordList<O> {
     /// yet installed, are skipped.
     #[inline]
     pub(crate) fn scan(&self, admit: impl Fn(&Key) -> bool, f: &mut impl FnMut(&Record)) -> u32 {
+        self.visit(admit, &mut |_, _, record| f(record))
+    }
+
+    /// [`RecordList::scan`], calling `f` with each admitted live slot's state, key and record.
+    #[inline(always)]
+    fn visit(
+        &self,
+        admit: impl Fn(&Key) -> bool,
+        f: &mut impl FnMut(&AtomicU8, &Key, &Record),
+    ) -> u32 {
         // Relaxed (HeadRead): the head only bounds the scan. A stale value merely skips records
         // whose insert is concurrent with this scan; every slot read is guarded by its own flag.
         let reserved = self.head.load(ord::<O>(Site::HeadRead));
@@ -387,6 +415,43 @@ impl<O: Orderings> RecordList<O> {
         examined
     }
 
+    /// Removes every live record `select` takes: one compare-and-swap of its slot's state from
+    /// live to removed, never retried (module documentation, 4). Returns how many this call
+    /// removed: a record another removal took first is not counted here.
+    pub(crate) fn remove_where(&self, select: impl Fn(&Record) -> bool) -> u32 {
+        let mut removed = 0;
+        self.visit(|_| true, &mut |state, _, record| {
+            if select(record) && take::<O>(state) {
+                removed += 1;
+            }
+        });
+        removed
+    }
+
+    /// Reclaims the slots of removed records: if any slot is not live, moves the live records,
+    /// in slot order, to a fresh list that replaces this one (freeing every old segment); returns
+    /// the live count. `&mut self`: no reader or writer exists.
+    pub(crate) fn compact(&mut self) -> usize {
+        let mut live = 0;
+        self.visit(|_| true, &mut |_, _, _| live += 1);
+        if live < self.reserved() {
+            let fresh = Self::new();
+            self.visit(|_| true, &mut |_, key, record| {
+                // A fresh list has room for what an older one held (same capacity).
+                let pushed = fresh.push_keyed(*key, *record);
+                debug_assert!(pushed.is_ok());
+            });
+            *self = fresh;
+        }
+        live
+    }
+
+    /// Slots reserved, live or not (the memory the list holds is about this many slots).
+    pub(crate) fn reserved(&mut self) -> usize {
+        // Relaxed: `&mut self`.
+        self.head.load(Ordering::Relaxed).min(capacity())
+    }
+
     /// How many records are published (for statistics; `&mut self`, so nothing is in flight).
     pub fn published(&mut self) -> usize {
         let mut n = 0;
@@ -422,8 +487,48 @@ fn publish_once<O: Orderings, T>(
     }
 }
 
+/// Moves a live slot's `state` to removed; true for the call that did. One compare-and-swap,
+/// never retried: if it fails, another removal took the slot (it was live when this thread read
+/// its record, and only a removal changes a live slot).
+#[inline]
+fn take<O: Orderings>(state: &AtomicU8) -> bool {
+    if O::REMOVE_BY_CAS {
+        state
+            .compare_exchange(
+                LIVE,
+                REMOVED,
+                // Relaxed (SlotRemove): the compare-and-swap's atomicity is what the removal
+                // needs: exactly one removal moves the slot, and only from live, so a removed
+                // slot never becomes live again (the state's modification order is unwritten,
+                // live, removed). It publishes nothing: no one reads the record of a removed
+                // slot. A lookup that happens-after this store loads `REMOVED` by write-read
+                // coherence, whatever the ordering; the record itself stays in place until
+                // `compact` (with `&mut`).
+                ord::<O>(Site::SlotRemove),
+                // Relaxed: a failed removal reads nothing through the state.
+                Ordering::Relaxed,
+            )
+            .is_ok()
+    } else {
+        // The loom-only `BlindRemove` policy: a load and a store in place of the
+        // compare-and-swap. Two overlapping removals can then both count one record.
+        // Relaxed: as above.
+        if state.load(Ordering::Relaxed) == LIVE {
+            state.store(REMOVED, Ordering::Relaxed);
+            true
+        } else {
+            false
+        }
+    }
+}
+
+/// The number of slots a list can hold.
+const fn capacity() -> usize {
+    (1 << BASE_SHIFT) * ((1 << SEGMENTS) - 1)
+}
+
 /// Reads the first `len` slots of the segment at `base` (segment `segment`): calls `f` with each
-/// published record whose key `admit` passes.
+/// live slot's state, key and record whose key `admit` passes.
 ///
 /// SAFETY: `base` must be a live segment `segment` of a list that outlives the call, and `len` at
 /// most its length.
@@ -433,36 +538,37 @@ unsafe fn scan_segment<O: Orderings>(
     segment: usize,
     len: usize,
     admit: &impl Fn(&Key) -> bool,
-    f: &mut impl FnMut(&Record),
+    f: &mut impl FnMut(&AtomicU8, &Key, &Record),
 ) {
     // SAFETY: `len <= segment_len(segment)` hot halves lie at `base`, initialised by
     // `new_segment` and live as long as the list (the caller's guarantee); they are only ever
     // accessed through `&` (the key through its `UnsafeCell`, the flag atomically).
     let hots = unsafe { std::slice::from_raw_parts(base.cast_const(), len) };
     for hot in hots {
-        // Acquire (SlotRead): pairs with the Release store in `push_keyed`; seeing `true` makes
+        // Acquire (SlotRead): pairs with the Release store in `push_keyed`; seeing `LIVE` makes
         // the key and the record written before that store visible.
-        if O::PUBLISH_SLOTS && !hot.ready.load(ord::<O>(Site::SlotRead)) {
+        if O::PUBLISH_SLOTS && hot.state.load(ord::<O>(Site::SlotRead)) != LIVE {
             continue;
         }
-        let pass = hot.key.with(|cell| {
-            // SAFETY: the flag was seen set, so the key was fully written and is never written
+        hot.key.with(|cell| {
+            // SAFETY: the slot was seen live, so the key was fully written and is never written
             // again (with `PUBLISH_SLOTS` off — loom's paper-literal model — this is exactly the
             // race loom must report).
-            admit(unsafe { (*cell).assume_init_ref() })
+            let key = unsafe { (*cell).assume_init_ref() };
+            if admit(key) {
+                // SAFETY: `hot` is an element of `hots`, which starts at `base`: the offset is its
+                // index, below `len`. Same segment and offset as `hot`.
+                let cold = unsafe {
+                    let offset = ptr::from_ref(hot).offset_from(base) as usize;
+                    &*cold(base, segment, offset)
+                };
+                cold.record.with(|cell| {
+                    // SAFETY: as for the key, under the same state (a removal leaves the record
+                    // in place; only `compact`, with `&mut`, frees it).
+                    f(&hot.state, key, unsafe { (*cell).assume_init_ref() })
+                });
+            }
         });
-        if pass {
-            // SAFETY: `hot` is an element of `hots`, which starts at `base`: the offset is its
-            // index, below `len`. Same segment and offset as `hot`.
-            let cold = unsafe {
-                let offset = ptr::from_ref(hot).offset_from(base) as usize;
-                &*cold(base, segment, offset)
-            };
-            cold.record.with(|cell| {
-                // SAFETY: as for the key, under the same flag.
-                f(unsafe { (*cell).assume_init_ref() })
-            });
-        }
     }
 }
 

@@ -56,8 +56,19 @@
 //! octree's geometry), and reads each visited list once, up to the head it loaded. Its work is
 //! bounded by the nodes and records present, never by what other threads do.
 //!
-//! Memory is reclaimed only when the whole cache is dropped: nothing is ever unlinked while the
-//! cache is shared, so no reader can meet freed memory and no epoch scheme is needed.
+//! **Removal** ([`CacheHandle::remove`]) runs during a frame, beside lookups and inserts: it walks
+//! the nodes whose loose cells the selection may reach, as a lookup walks (the same mask loads, so
+//! it meets every record whose insert happens-before it), and takes each selected live record with
+//! one compare-and-swap of its slot's state, never retried (`list.rs`, 4). It is wait-free by the
+//! lookup's argument: its work is bounded by the nodes and slots present.
+//!
+//! **Memory** is reclaimed only with `&mut` access: nothing is ever unlinked or freed while the
+//! cache is shared, so no reader can meet freed memory and no epoch scheme is needed. When a frame
+//! in which records were removed closes ([`IrradianceCache::end_frame`]), and after a removal
+//! between frames ([`IrradianceCache::remove`]), every list holding a removed record is rebuilt
+//! from its live records and every subtree left with none is freed (its bit cleared: the only
+//! place a mask bit is ever cleared). A cache that removes what it inserts, frame after frame,
+//! holds memory bounded by its live records and the tree over them.
 
 mod list;
 pub mod orderings;
@@ -68,7 +79,7 @@ use super::{
     collect_valid, CacheConfig, CacheHandle, CacheStats, FrameReport, HandleCore, Inserted,
     IrradianceCache, Work, WorkerStats,
 };
-use crate::ic::{InsertError, Interpolated, Key, Record, WorkerId};
+use crate::ic::{InsertError, Interpolated, Key, Record, Selection, WorkerId};
 use crate::sync::{fence, AtomicPtr, AtomicU8, Ordering, Tracked};
 use glam::Vec3;
 #[cfg(not(feature = "loom"))]
@@ -179,7 +190,8 @@ impl<O: Orderings> Node<O> {
     fn mark(&self, octant: Octant) {
         // Relaxed (MaskTest): only saves the read-modify-write when the bit is already set. If
         // this load sees the bit, any load that happens-after it sees the bit too (read-read
-        // coherence, and bits are never cleared), and whoever set it had seen the child, so
+        // coherence, and bits are never cleared while the cache is shared: only `reclaim`, with
+        // `&mut`, clears one), and whoever set it had seen the child, so
         // skipping the `fetch_or` loses nothing; this insert reads nothing through the mask.
         if self.occupied.load(ord::<O>(Site::MaskTest)) & octant.bit() == 0 {
             // Release (MaskSet): publishes the child with its bit. This thread saw the child
@@ -402,6 +414,91 @@ impl<O: Orderings> WaitFree<O> {
         }
     }
 
+    /// Removes every live record `selection` takes in frame `now` from the nodes a walk reaches
+    /// (module documentation); returns how many this call took.
+    fn remove_from(&self, selection: &Selection, now: u64) -> u64 {
+        let mut removed = 0;
+        self.remove_in(
+            &self.root,
+            self.config.root(),
+            true,
+            selection,
+            now,
+            &mut removed,
+        );
+        removed
+    }
+
+    fn remove_in(
+        &self,
+        node: &Node<O>,
+        cell: Cell,
+        root: bool,
+        selection: &Selection,
+        now: u64,
+        removed: &mut u64,
+    ) {
+        if !root {
+            // The loose cell holds every stored record's influence sphere, here and below.
+            let (lo, hi) = self.config.geometry().loose_bounds(&cell);
+            if !selection.may_select_within(lo, hi) {
+                return;
+            }
+        }
+        let accuracy = self.config.accuracy();
+        *removed += u64::from(
+            node.records
+                .remove_where(|r| selection.selects(r, accuracy, now)),
+        );
+        // Acquire (MaskRead): as in `walk_node`: every bit seen comes with its child, and every
+        // bit on the path of a record whose insert happens-before this removal is seen.
+        let occupied = node.occupied.load(ord::<O>(Site::MaskRead));
+        for octant in Octant::in_mask(occupied) {
+            let child = node.follow(octant);
+            self.remove_in(child, cell.child(octant), false, selection, now, removed);
+        }
+    }
+
+    /// Reclaims what removals left (`&mut`: no handle exists): rebuilds every list that holds a
+    /// removed record from its live ones and frees every subtree left with no record.
+    fn reclaim(&mut self) {
+        /// Compacts `node`'s subtree; true when it holds no record and no child any more.
+        fn prune<O: Orderings>(node: &mut Node<O>) -> bool {
+            let mut live = node.records.compact();
+            for octant in Octant::ALL {
+                let slot = &mut node.children[octant.index()];
+                // Relaxed: `&mut self` — every other thread's accesses happen-before this.
+                let child = slot.load(Ordering::Relaxed);
+                // SAFETY: a published child, live until freed here, and `&mut` makes this the
+                // only access.
+                let Some(child_ref) = (unsafe { child.as_mut() }) else {
+                    continue;
+                };
+                if prune(child_ref) {
+                    // Relaxed: as above; nothing can load the pointer before the next frame,
+                    // whose handles are made after this `&mut` access ends.
+                    slot.store(ptr::null_mut(), Ordering::Relaxed);
+                    // Relaxed: as above. The one place a bit is cleared: with its child gone.
+                    node.occupied.fetch_and(!octant.bit(), Ordering::Relaxed);
+                    // SAFETY: from `Box::into_raw` in `graft` or `build_path`, unlinked just
+                    // above, so owned here alone.
+                    drop(unsafe { Box::from_raw(child) });
+                } else {
+                    live += 1;
+                }
+            }
+            live == 0
+        }
+        prune(&mut self.root);
+    }
+
+    /// Slots reserved in every list, live or not: what the lists' memory is made of.
+    pub fn reserved_slots(&mut self) -> usize {
+        let mut slots = 0;
+        self.for_each_node(&mut |node| slots += node.records.reserved());
+        slots
+    }
+
     fn for_each_node(&mut self, f: &mut impl FnMut(&mut Node<O>)) {
         fn walk<O: Orderings>(node: &mut Node<O>, f: &mut impl FnMut(&mut Node<O>)) {
             f(node);
@@ -480,7 +577,20 @@ impl<O: Orderings> IrradianceCache for WaitFree<O> {
     }
 
     fn end_frame(&mut self) -> FrameReport {
-        self.ledger.close_frame(&mut self.stats).1
+        let report = self.ledger.close_frame(&mut self.stats).1;
+        if report.workers.removed > 0 {
+            self.reclaim();
+        }
+        report
+    }
+
+    fn remove(&mut self, selection: &Selection) -> usize {
+        let removed = self.remove_from(selection, self.stats.frames);
+        self.stats.totals.removed += removed;
+        if removed > 0 {
+            self.reclaim();
+        }
+        removed as usize
     }
 
     fn snapshot(&mut self) -> Vec<Record> {
@@ -533,6 +643,12 @@ impl<O: Orderings> CacheHandle for WfHandle<'_, O> {
             #[cfg(not(feature = "loom"))]
             Placed::Full => unreachable!("a record list ran out of its 4 (2^50 - 1) slots"),
         }
+    }
+
+    fn remove(&mut self, selection: &Selection) -> usize {
+        let removed = self.cache.remove_from(selection, self.core.frame);
+        self.core.stats.removed += removed;
+        removed as usize
     }
 
     fn valid_records(&mut self, point: Vec3, normal: Vec3, out: &mut Vec<Record>) {

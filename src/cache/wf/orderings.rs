@@ -40,11 +40,13 @@ pub enum Site {
     MaskTest,
     /// Load of a child pointer by a lookup, after its bit was seen in the mask.
     ChildFollow,
+    /// Successful compare-and-swap of a slot's state from live to removed (a removal).
+    SlotRemove,
 }
 
 impl Site {
     /// How many sites there are.
-    pub const COUNT: usize = 14;
+    pub const COUNT: usize = 15;
 
     /// Every site, in index order.
     pub const ALL: [Site; Site::COUNT] = [
@@ -62,6 +64,7 @@ impl Site {
         Site::MaskRead,
         Site::MaskTest,
         Site::ChildFollow,
+        Site::SlotRemove,
     ];
 }
 
@@ -84,6 +87,10 @@ pub trait Orderings: sealed::Sealed + Send + Sync + 'static {
     /// mask when its publisher has not yet. Only the loom-only `Unhelped` policy clears it (then
     /// only the publisher marks), and loom must find the record a later lookup misses.
     const HELP_MARK: bool = true;
+    /// Whether a removal moves a slot from live to removed with a compare-and-swap. Only the
+    /// loom-only `BlindRemove` policy clears it (a load, then a store), and loom must find the
+    /// record two overlapping removals both count.
+    const REMOVE_BY_CAS: bool = true;
 }
 
 /// The ordering of `site` under policy `O` (a constant after inlining).
@@ -134,6 +141,7 @@ const MINIMAL: [Ordering; Site::COUNT] = [
     Acquire, // MaskRead
     Relaxed, // MaskTest
     Relaxed, // ChildFollow
+    Relaxed, // SlotRemove
 ];
 
 impl Orderings for Minimal {
@@ -188,6 +196,23 @@ impl Orderings for Unhelped {
     const NAME: &'static str = "unhelped";
     const SITES: [Ordering; Site::COUNT] = MINIMAL;
     const HELP_MARK: bool = false;
+}
+
+/// [`Minimal`], but a removal checks that a slot is live and then stores "removed", where the
+/// shipped code makes one compare-and-swap. Loom only: two removals of one record can then both
+/// take it, and loom must find the record counted twice.
+#[cfg(feature = "loom")]
+#[derive(Clone, Copy, Debug, Default)]
+pub struct BlindRemove;
+
+#[cfg(feature = "loom")]
+impl sealed::Sealed for BlindRemove {}
+
+#[cfg(feature = "loom")]
+impl Orderings for BlindRemove {
+    const NAME: &'static str = "blind-remove";
+    const SITES: [Ordering; Site::COUNT] = MINIMAL;
+    const REMOVE_BY_CAS: bool = false;
 }
 
 /// [`Minimal`] with the site numbered `SITE` weakened to `Relaxed`. Loom only: each instance is a
