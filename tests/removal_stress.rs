@@ -1,0 +1,231 @@
+//! Real threads removing while others insert and look up, in every scheme: 10^5 removals among
+//! 10^6 lookups per scheme, every record a lookup meets checked whole, genuine and not removed
+//! before the lookup began (never resurrected), and after the frame exactly the records stored
+//! and not removed are left. Four workers: oversubscribed on the 2-core CI machine, which only adds
+//! preemptions (these are correctness tests).
+#![cfg(not(checker))]
+
+mod common;
+
+use common::{with_scheme, Rng, SchemeCheck, AXES, SCHEMES};
+use glam::Vec3;
+use std::collections::HashSet;
+use std::sync::atomic::{AtomicU64, Ordering};
+use wfic::cache::{CacheConfig, CacheHandle, Inserted, IrradianceCache};
+use wfic::ic::{Record, Selection};
+
+const THREADS: u32 = 4;
+/// Per worker: inserts, removals (of its own earlier records), lookups.
+const INSERTS: u64 = 50_000;
+const REMOVALS: u64 = 25_000;
+const LOOKUPS: u64 = 250_000;
+/// The records sit on a lattice of this many points per axis over the 10-unit world: 62 500 a
+/// worker's share of the 250 047 points, 0.159 apart, so a record's influence (at most
+/// 0.1 * 0.5 = 0.05) holds no other record's centre, and a point selection at a record's centre
+/// takes exactly that record.
+const LATTICE: u64 = 63;
+const ACCURACY: f32 = 0.1;
+
+fn config() -> CacheConfig {
+    CacheConfig::new(Vec3::ZERO, Vec3::splat(10.0), ACCURACY).unwrap()
+}
+
+/// Worker `worker`'s `seq`-th record: a pure function of both, on its own lattice point.
+fn record(worker: u32, seq: u64) -> Record {
+    let k = seq * u64::from(THREADS) + u64::from(worker);
+    let (i, j, l) = (
+        k % LATTICE,
+        (k / LATTICE) % LATTICE,
+        k / (LATTICE * LATTICE),
+    );
+    assert!(l < LATTICE, "lattice exhausted");
+    let step = 10.0 / LATTICE as f32;
+    let p = Vec3::new(i as f32 + 0.5, j as f32 + 0.5, l as f32 + 0.5) * step;
+    let mut rng = Rng::new(k ^ 0xdead);
+    Record::new(
+        p,
+        AXES[(k % 6) as usize],
+        Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()),
+        rng.range(0.2, 0.5),
+    )
+}
+
+/// True when `r` is intact and exactly what its id says was inserted.
+fn genuine(r: &Record) -> bool {
+    let id = r.id();
+    let want = record(id.worker().index(), id.seq());
+    r.is_intact()
+        && r.position == want.position
+        && r.normal == want.normal
+        && r.irradiance == want.irradiance
+        && r.radius == want.radius
+}
+
+/// What the workers share besides the cache: per worker, how many of its inserts have returned;
+/// per record, the removal epoch at which its removal returned (0: not removed); and the epoch
+/// counter itself.
+struct Shared {
+    inserted: Vec<AtomicU64>,
+    gone: Vec<AtomicU64>,
+    epoch: AtomicU64,
+}
+
+impl Shared {
+    fn slot(worker: u32, seq: u64) -> usize {
+        (seq * u64::from(THREADS) + u64::from(worker)) as usize
+    }
+}
+
+struct Outcome {
+    stored: Vec<u64>,
+    removed: Vec<u64>,
+    lookups: u64,
+    met: u64,
+}
+
+struct RemovalStress;
+
+impl SchemeCheck for RemovalStress {
+    fn check<C: IrradianceCache>(&mut self, mut cache: C) {
+        let scheme = cache.scheme();
+        let shared = Shared {
+            inserted: (0..THREADS).map(|_| AtomicU64::new(0)).collect(),
+            gone: (0..INSERTS * u64::from(THREADS))
+                .map(|_| AtomicU64::new(0))
+                .collect(),
+            epoch: AtomicU64::new(0),
+        };
+        let frame = cache.frame();
+        let outcomes = frame.run(THREADS as usize, |h, worker| {
+            work(h, worker.index(), &shared, scheme)
+        });
+        let report = frame.close();
+
+        let removed: u64 = outcomes.iter().map(|o| o.removed.len() as u64).sum();
+        assert_eq!(
+            report.workers.removed, removed,
+            "{scheme}: removals counted"
+        );
+        assert!(
+            removed >= REMOVALS * u64::from(THREADS) * 9 / 10,
+            "{scheme}: {removed} removals"
+        );
+        let lookups: u64 = outcomes.iter().map(|o| o.lookups).sum();
+        assert_eq!(lookups, LOOKUPS * u64::from(THREADS), "{scheme}: lookups");
+        assert_eq!(report.workers.lookups, lookups, "{scheme}: lookups counted");
+        let met: u64 = outcomes.iter().map(|o| o.met).sum();
+        // LW's workers see only their own records during the frame: about a quarter of the rest.
+        assert!(met >= 100_000, "{scheme}: lookups met only {met} records");
+        eprintln!("{scheme}: {removed} removals, {lookups} lookups meeting {met} records, checked");
+
+        // Exactly the stored records that were not removed are left.
+        let mut want = HashSet::new();
+        for (worker, o) in outcomes.iter().enumerate() {
+            let gone: HashSet<u64> = o.removed.iter().copied().collect();
+            want.extend(
+                o.stored
+                    .iter()
+                    .filter(|s| !gone.contains(s))
+                    .map(|&s| (worker as u32, s)),
+            );
+        }
+        let left = cache.snapshot();
+        assert!(
+            left.iter().all(genuine),
+            "{scheme}: a torn or forged record left"
+        );
+        let got: HashSet<(u32, u64)> = left
+            .iter()
+            .map(|r| (r.id().worker().index(), r.id().seq()))
+            .collect();
+        assert_eq!(got.len(), left.len(), "{scheme}: a record left twice");
+        assert_eq!(got, want, "{scheme}: survivors");
+    }
+}
+
+fn work<H: CacheHandle>(h: &mut H, me: u32, shared: &Shared, scheme: &str) -> Outcome {
+    let mut rng = Rng::new(u64::from(me) * 7919 + 1);
+    let mut out = Outcome {
+        stored: Vec::new(),
+        removed: Vec::new(),
+        lookups: 0,
+        met: 0,
+    };
+    let mut alive: Vec<u64> = Vec::new();
+    let mut found = Vec::new();
+    let lookups_per_insert = LOOKUPS / INSERTS;
+    for seq in 0..INSERTS {
+        let r = record(me, seq);
+        match h.insert(r).expect("valid record") {
+            Inserted::Stored(id) => {
+                assert_eq!(id.seq(), seq, "{scheme}: ids count inserts");
+                out.stored.push(seq);
+                alive.push(seq);
+            }
+            Inserted::Discarded(_) => {}
+            Inserted::NotCached(_) => unreachable!("every scheme here stores"),
+        }
+        // Release: a reader that loads this count with Acquire happens-after the insert.
+        shared.inserted[me as usize].store(seq + 1, Ordering::Release);
+
+        // Every other insert, remove one of this worker's own live records: a point selection at
+        // its centre takes exactly it (its insert returned, so it happens-before the removal).
+        if seq % (INSERTS / REMOVALS) == 1 && !alive.is_empty() {
+            let k = rng.below(alive.len() as u64) as usize;
+            let victim = alive.swap_remove(k);
+            let p = record(me, victim).position;
+            let n = h.remove(&Selection::touching(p, p).unwrap());
+            // LW removes its own local records at once, as the others remove theirs.
+            assert_eq!(n, 1, "{scheme}: the removal of r{me}.{victim} took {n}");
+            out.removed.push(victim);
+            // AcqRel: the epoch's increment happens-after the removal (program order), and a
+            // lookup that loads this value or a later one (Acquire; the increments form one
+            // release sequence) happens-after it.
+            let e = shared.epoch.fetch_add(1, Ordering::AcqRel) + 1;
+            shared.gone[Shared::slot(me, victim)].store(e, Ordering::Release);
+        }
+
+        for _ in 0..lookups_per_insert {
+            // Near a record of a random worker whose insert has returned.
+            // (This worker's own when that one has inserted nothing yet: TRA runs its workers
+            // one after another.)
+            let mut other = rng.below(u64::from(THREADS)) as u32;
+            // Acquire: pairs with the Release store after the insert.
+            let mut done = shared.inserted[other as usize].load(Ordering::Acquire);
+            if done == 0 {
+                other = me;
+                // Acquire: as above (this worker's own store: it has inserted `seq + 1`).
+                done = shared.inserted[me as usize].load(Ordering::Acquire);
+            }
+            let target = record(other, rng.below(done));
+            // Acquire: see above; every removal that returned at epoch <= before happens-before
+            // this lookup, which must not meet its record.
+            let before = shared.epoch.load(Ordering::Acquire);
+            let q = target.position + Vec3::splat(0.01);
+            found.clear();
+            // The interpolation itself is the agreement tests' business; here, its traversal.
+            let _ = h.lookup(q, target.normal);
+            out.lookups += 1;
+            h.valid_records(q, target.normal, &mut found);
+            for f in &found {
+                assert!(genuine(f), "{scheme}: a torn or forged record {:?}", f.id());
+                let (fw, fs) = (f.id().worker().index(), f.id().seq());
+                // Acquire: pairs with the remover's Release store of the epoch.
+                let gone = shared.gone[Shared::slot(fw, fs)].load(Ordering::Acquire);
+                assert!(
+                    gone == 0 || gone > before,
+                    "{scheme}: r{fw}.{fs}, removed at epoch {gone}, found by a lookup that began at {before}"
+                );
+                out.met += 1;
+            }
+        }
+    }
+    out
+}
+
+#[test]
+fn every_scheme_removes_while_others_insert_and_look_up() {
+    for scheme in SCHEMES {
+        with_scheme(scheme, config(), &mut RemovalStress);
+    }
+}
