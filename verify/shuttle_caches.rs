@@ -20,7 +20,7 @@ use wfic::cache::{
     CacheConfig, CacheHandle, CasFailure, Inserted, IrradianceCache, LocalWrite, Locked,
     MutexFlavour, RwLockFlavour, WaitFree,
 };
-use wfic::ic::{Record, WorkerId};
+use wfic::ic::{Record, Selection, WorkerId};
 use wfic::sync::{thread, Arc};
 
 /// The world: a 4-unit box, accuracy 1.
@@ -193,6 +193,215 @@ fn workload<C: IrradianceCache + 'static>(cache: C, threads: u32, ops: u64, inse
             .iter()
             .any(|p| shape.reach(*p).nodes < shape.nodes() as u64),
         "{scheme}: every point reaches the whole tree; the bound cannot tell a pruned lookup"
+    );
+}
+
+/// Schedules in which some removal took a record another worker stored (the removals race the
+/// other workers' inserts and one another, not only the remover's own records).
+static TOOK_FOREIGN: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+
+/// One schedule mixing removal with inserts and lookups: `threads` workers, `ops` operations each;
+/// one in `insert_every` an insert, one in `remove_every` a removal at the point of one of the
+/// worker's own earlier records (the records cluster, so a removal takes other workers' records
+/// too, and removals overlap), the rest lookups. Checks: racing reads genuine; after a worker's
+/// removal, its own lookup at that point meets none of its own earlier records that the removal
+/// selects (they happen-before it, so they are gone); after the frame, every stored record is
+/// alive or was counted by exactly one removal, and the tree has exactly the survivors' nodes
+/// (reclamation).
+fn removal_workload<C: IrradianceCache + 'static>(
+    cache: C,
+    threads: u32,
+    ops: u64,
+    insert_every: u64,
+    remove_every: u64,
+) {
+    let scheme = cache.scheme();
+    let config = *cache.config();
+    let a = config.accuracy();
+    let cache = Arc::new(cache);
+    let workers: Vec<_> = (0..threads)
+        .map(|t| {
+            let cache = cache.clone();
+            thread::spawn(move || {
+                let mut h = cache.handle(WorkerId::new(t));
+                let mut stored = Vec::new();
+                let mut found = Vec::new();
+                let mut took = 0;
+                let mut own_selected = 0;
+                for i in 0..ops {
+                    if i % insert_every == 0 {
+                        let seq = i / insert_every;
+                        if let Inserted::Stored(id) =
+                            h.insert(record_for(t, seq)).expect("valid record")
+                        {
+                            stored.push(id);
+                        }
+                    } else if i % remove_every == 0 && !stored.is_empty() {
+                        let target = stored[(i as usize / 7) % stored.len()];
+                        let p = record_for(t, target.seq()).position;
+                        let selection = Selection::touching(p, p).unwrap();
+                        took += h.remove(&selection);
+                        // Own earlier records the selection takes: gone for this worker now.
+                        let mine: HashSet<_> = stored
+                            .iter()
+                            .filter(|id| {
+                                let r = record_for(t, id.seq());
+                                selection.selects(&r.sealed(**id), a, 0)
+                            })
+                            .copied()
+                            .collect();
+                        own_selected += mine.len();
+                        found.clear();
+                        h.valid_records(p, Vec3::Z, &mut found);
+                        assert!(
+                            found.iter().all(genuine),
+                            "{scheme}: phantom or torn record"
+                        );
+                        assert!(
+                            found.iter().all(|f| !mine.contains(&f.id())),
+                            "{scheme}: a record found after a removal that happens-after its insert"
+                        );
+                        stored.retain(|id| !mine.contains(id));
+                    } else {
+                        let other = (t + 1 + (i as u32 % threads.max(2))) % threads;
+                        let q = record_for(other, i / insert_every);
+                        found.clear();
+                        h.valid_records(q.position, q.normal, &mut found);
+                        assert!(
+                            found.iter().all(genuine),
+                            "{scheme}: phantom or torn record"
+                        );
+                    }
+                }
+                assert_eq!(h.stats().removed, took as u64, "{scheme}: handle count");
+                (took, own_selected)
+            })
+        })
+        .collect();
+    let mut counted = 0;
+    let mut foreign = false;
+    for w in workers {
+        let (took, own) = w.join().unwrap();
+        counted += took;
+        // Took more than its own selected records: some were another worker's. (LW's handles
+        // take only their own local records.)
+        foreign |= took > own;
+    }
+    if foreign {
+        TOOK_FOREIGN.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    }
+    let mut cache = Arc::try_unwrap(cache).unwrap_or_else(|_| panic!("workers joined"));
+    let report = cache.end_frame();
+    assert_eq!(
+        report.workers.removed, counted as u64,
+        "{scheme}: removals reported"
+    );
+    let stored = report.workers.stored;
+    let snapshot = cache.snapshot();
+    assert!(
+        snapshot.iter().all(genuine),
+        "{scheme}: torn record in the final cache"
+    );
+    let ids: HashSet<_> = snapshot.iter().map(Record::id).collect();
+    assert_eq!(ids.len(), snapshot.len(), "{scheme}: duplicated record");
+    assert_eq!(
+        snapshot.len() as u64 + report.workers.removed,
+        stored,
+        "{scheme}: a record lost, or removed twice"
+    );
+    let shape = TreeShape::of(&config, &snapshot);
+    assert_eq!(
+        cache.stats().nodes,
+        shape.nodes(),
+        "{scheme}: after reclamation, a node off every surviving record's path, or one missing"
+    );
+}
+
+#[test]
+fn shuttle_wf_removal_random() {
+    explore_all(
+        "shuttle_wf_removal_random",
+        "4 threads x 30 ops, 1 insert in 2, 1 removal in 5",
+        Sched::Random,
+        &SEEDS,
+        1000,
+        || {
+            removal_workload(
+                WaitFree::<Minimal>::new(config(), CasFailure::Adopt),
+                4,
+                30,
+                2,
+                5,
+            )
+        },
+    );
+    assert!(
+        TOOK_FOREIGN.load(std::sync::atomic::Ordering::Relaxed) > 0,
+        "no schedule had a removal take another worker's record"
+    );
+}
+
+#[test]
+fn shuttle_wf_removal_pct() {
+    explore_all(
+        "shuttle_wf_removal_pct",
+        "8 threads x 16 ops, 1 insert in 2, 1 removal in 3",
+        Sched::Pct(3),
+        &SEEDS,
+        600,
+        || {
+            removal_workload(
+                WaitFree::<Minimal>::new(config(), CasFailure::Adopt),
+                8,
+                16,
+                2,
+                3,
+            )
+        },
+    );
+}
+
+#[test]
+fn shuttle_wf_discard_removal_random() {
+    explore_all(
+        "shuttle_wf_discard_removal_random",
+        "4 threads x 30 ops, 1 insert in 2, 1 removal in 5",
+        Sched::Random,
+        &SEEDS,
+        500,
+        || {
+            removal_workload(
+                WaitFree::<Minimal>::new(config(), CasFailure::Discard),
+                4,
+                30,
+                2,
+                5,
+            )
+        },
+    );
+}
+
+#[test]
+fn shuttle_lck_removal_random() {
+    explore_all(
+        "shuttle_lck_removal_random",
+        "4 threads x 30 ops, 1 insert in 2, 1 removal in 5",
+        Sched::Random,
+        &SEEDS,
+        300,
+        || removal_workload(Locked::<RwLockFlavour>::new(config()), 4, 30, 2, 5),
+    );
+}
+
+#[test]
+fn shuttle_lw_removal_random() {
+    explore_all(
+        "shuttle_lw_removal_random",
+        "4 threads x 30 ops, 1 insert in 2, 1 removal in 5",
+        Sched::Random,
+        &SEEDS,
+        300,
+        || removal_workload(LocalWrite::new(config()), 4, 30, 2, 5),
     );
 }
 

@@ -120,6 +120,9 @@ impl IrradianceCache for LocalWrite {
         }
         report.workers.removed += removed;
         self.stats.totals.removed += removed;
+        if removed > 0 {
+            self.global.prune();
+        }
         for deposit in &deposits {
             for record in deposit.local.tree.records() {
                 // Admitted by the handle already: same bounds, validated and sealed.
@@ -133,6 +136,9 @@ impl IrradianceCache for LocalWrite {
 
     fn remove(&mut self, selection: &Selection) -> usize {
         let removed = self.global.remove(selection, self.stats.frames);
+        if removed > 0 {
+            self.global.prune();
+        }
         self.stats.totals.removed += removed as u64;
         removed
     }

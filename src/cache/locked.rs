@@ -182,12 +182,20 @@ impl<F: LockFlavour> IrradianceCache for Locked<F> {
     }
 
     fn end_frame(&mut self) -> FrameReport {
-        self.ledger.close_frame(&mut self.stats).1
+        let report = self.ledger.close_frame(&mut self.stats).1;
+        if report.workers.removed > 0 {
+            self.tree.get_mut().prune();
+        }
+        report
     }
 
     fn remove(&mut self, selection: &Selection) -> usize {
         let now = self.stats.frames;
-        let removed = self.tree.get_mut().remove(selection, now);
+        let tree = self.tree.get_mut();
+        let removed = tree.remove(selection, now);
+        if removed > 0 {
+            tree.prune();
+        }
         self.stats.totals.removed += removed as u64;
         removed
     }

@@ -195,6 +195,44 @@ impl Octree {
         removed
     }
 
+    /// Frees the nodes that removals left with no record below them, and renumbers the rest in
+    /// breadth-first order: afterwards the octree has exactly the nodes its records' paths need,
+    /// as if built afresh from them. `O(nodes)`: the schemes call it when a frame with removals
+    /// closes, not at every removal.
+    pub fn prune(&mut self) {
+        /// Unlinks the empty subtrees below node `i`; true when `i`'s own subtree is empty.
+        fn unlink_empty(nodes: &mut [Node], i: usize) -> bool {
+            let mut empty = nodes[i].records.is_empty();
+            for octant in Octant::in_mask(nodes[i].occupied) {
+                let child = nodes[i].children[octant.index()] as usize;
+                if unlink_empty(nodes, child) {
+                    nodes[i].children[octant.index()] = 0;
+                    nodes[i].occupied &= !octant.bit();
+                } else {
+                    empty = false;
+                }
+            }
+            empty
+        }
+        unlink_empty(&mut self.nodes, 0);
+        let mut old: Vec<Option<Node>> = std::mem::take(&mut self.nodes)
+            .into_iter()
+            .map(Some)
+            .collect();
+        let mut nodes = vec![old[0].take().expect("the root")];
+        let mut next = 0;
+        while next < nodes.len() {
+            for octant in Octant::in_mask(nodes[next].occupied) {
+                let child = nodes[next].children[octant.index()] as usize;
+                let index = NodeIndex::try_from(nodes.len()).expect("fewer nodes than before");
+                nodes.push(old[child].take().expect("each node has one parent"));
+                nodes[next].children[octant.index()] = index;
+            }
+            next += 1;
+        }
+        self.nodes = nodes;
+    }
+
     /// Moves the records out, leaving an octree with no nodes that must only be dropped (what a
     /// dropped LW handle does with its local octree).
     fn take_all(&mut self) -> Self {
@@ -277,12 +315,20 @@ impl IrradianceCache for Sequential {
     }
 
     fn end_frame(&mut self) -> FrameReport {
-        self.ledger.close_frame(&mut self.stats).1
+        let report = self.ledger.close_frame(&mut self.stats).1;
+        if report.workers.removed > 0 {
+            self.tree_mut().prune();
+        }
+        report
     }
 
     fn remove(&mut self, selection: &Selection) -> usize {
         let now = self.stats.frames;
-        let removed = self.tree_mut().remove(selection, now);
+        let tree = self.tree_mut();
+        let removed = tree.remove(selection, now);
+        if removed > 0 {
+            tree.prune();
+        }
         self.stats.totals.removed += removed as u64;
         removed
     }
