@@ -59,6 +59,22 @@ impl fmt::Display for SelectionError {
 
 impl std::error::Error for SelectionError {}
 
+impl fmt::Display for Selection {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self.0 {
+            Kind::Touching { min, max } if min == max => {
+                write!(f, "touching ({:.2},{:.2},{:.2})", min.x, min.y, min.z)
+            }
+            Kind::Touching { min, max } => write!(
+                f,
+                "touching ({:.2},{:.2},{:.2})..({:.2},{:.2},{:.2})",
+                min.x, min.y, min.z, max.x, max.y, max.z
+            ),
+            Kind::OlderThan { frames } => write!(f, "older than {frames} frames"),
+        }
+    }
+}
+
 /// Frames are numbered modulo 2^16 in record ids ([`super::RecordId::frame`]).
 const FRAME_MASK: u64 = 0xffff;
 

@@ -26,7 +26,7 @@
 
 use super::{History, Specification, ThreadLog};
 use crate::cache::{CacheConfig, CacheHandle, Inserted};
-use crate::ic::{self, InsertError, Record, RecordId, WorkerId};
+use crate::ic::{self, InsertError, Record, RecordId, Selection, WorkerId};
 use glam::Vec3;
 use std::collections::{BTreeMap, HashMap};
 use std::fmt;
@@ -89,6 +89,13 @@ pub enum CacheOp {
         /// The query's unit normal.
         normal: Vec3,
     },
+    /// Remove the records a selection takes, ages counted from frame `now`; returns how many.
+    Remove {
+        /// What to remove.
+        selection: Selection,
+        /// The frame the removal runs in (for [`Selection::older_than`]).
+        now: u64,
+    },
 }
 
 impl CacheOp {
@@ -122,6 +129,7 @@ impl fmt::Debug for CacheOp {
             Self::Lookup { point, .. } => {
                 write!(f, "lookup ({:.2},{:.2},{:.2})", point.x, point.y, point.z)
             }
+            Self::Remove { selection, .. } => write!(f, "remove {selection}"),
         }
     }
 }
@@ -142,6 +150,8 @@ pub enum CacheRet {
         /// specification.
         torn: usize,
     },
+    /// A removal's count.
+    Removed(usize),
 }
 
 impl fmt::Debug for CacheRet {
@@ -162,6 +172,7 @@ impl fmt::Debug for CacheRet {
                 }
                 Ok(())
             }
+            Self::Removed(n) => write!(f, "Removed({n})"),
         }
     }
 }
@@ -208,6 +219,37 @@ impl CacheSpec {
     fn is_fresh(&self, id: RecordId) -> bool {
         self.records.binary_search_by_key(&id, Record::id).is_err()
             && self.spent.binary_search(&id).is_err()
+    }
+
+    /// Removes every record `selection` takes in frame `now`, named or not; returns how many.
+    /// The ids of the removed named records are spent: no later record may have them.
+    fn remove(&mut self, selection: &Selection, now: u64) -> usize {
+        let a = self.config.accuracy();
+        let (gone, kept): (Vec<Record>, Vec<Record>) = self
+            .records
+            .iter()
+            .partition(|r| selection.selects(r, a, now));
+        let unnamed_gone = self
+            .unnamed
+            .iter()
+            .filter(|(_, r)| selection.selects(r, a, now))
+            .count();
+        if !gone.is_empty() {
+            let spent = Arc::make_mut(&mut self.spent);
+            spent.extend(gone.iter().map(Record::id));
+            spent.sort_unstable();
+            self.records = Arc::new(kept);
+        }
+        if unnamed_gone > 0 {
+            let left = self
+                .unnamed
+                .iter()
+                .filter(|(_, r)| !selection.selects(r, a, now))
+                .copied()
+                .collect();
+            self.unnamed = Arc::new(left);
+        }
+        gone.len() + unnamed_gone
     }
 
     /// Stores `record` as `id` (nothing when a record has that id already).
@@ -349,6 +391,7 @@ impl Specification for CacheSpec {
                 ids: self.valid_ids(*point, *normal),
                 torn: 0,
             },
+            CacheOp::Remove { selection, now } => CacheRet::Removed(self.remove(selection, *now)),
         }
     }
 
@@ -367,6 +410,9 @@ impl Specification for CacheSpec {
                     Arc::make_mut(&mut self.unnamed).push((worker, *record))
                 }
             },
+            CacheOp::Remove { selection, now } => {
+                self.remove(selection, *now);
+            }
             CacheOp::Insert { .. } | CacheOp::Lookup { .. } => {}
         }
     }
@@ -408,6 +454,9 @@ impl Specification for CacheSpec {
             (CacheOp::Lookup { point, normal }, CacheRet::Found { ids, torn }) => {
                 *torn == 0 && self.step_lookup(*point, *normal, ids)
             }
+            (CacheOp::Remove { selection, now }, CacheRet::Removed(n)) => {
+                self.remove(selection, *now) == *n
+            }
             _ => false,
         }
     }
@@ -418,9 +467,17 @@ impl Specification for CacheSpec {
 
     /// Records are independent: a lookup that saw a removed insert's record keeps the rest. A
     /// removed insert whose id is unknown may be behind any id of its worker, so a lookup that
-    /// returned one goes with it.
+    /// returned one goes with it. A removal's count may include a removed insert's record when it
+    /// selects it: it goes with the insert. Without a removal, a lookup might have returned
+    /// records the removal took, which nobody can name: every lookup goes with a removal.
     fn forget(op: &CacheOp, ret: &mut CacheRet, removed: &CacheOp) -> bool {
         match (op, &mut *ret, removed) {
+            (CacheOp::Remove { selection, now }, _, CacheOp::Insert { record, .. }) => {
+                // The accuracy is not known here: ask at the largest (`a = 1`), which selects a
+                // superset of what any cache's accuracy selects.
+                !selection.selects(record, 1.0, *now)
+            }
+            (CacheOp::Lookup { .. }, _, CacheOp::Remove { .. }) => false,
             (
                 CacheOp::Lookup { .. },
                 CacheRet::Found { ids, .. },
@@ -513,6 +570,15 @@ impl<H: CacheHandle> RecordingHandle<H> {
         (ids, torn)
     }
 
+    /// Removes what `selection` takes through the handle (ages counted from frame `now`, the
+    /// handle's frame), recording the call and its count.
+    pub fn remove(&mut self, selection: Selection, now: u64) -> usize {
+        self.log.invoke(CacheOp::Remove { selection, now });
+        let n = self.handle.remove(&selection);
+        self.log.ret(CacheRet::Removed(n));
+        n
+    }
+
     /// The wrapped handle (operations through it are not recorded).
     pub fn handle(&mut self) -> &mut H {
         &mut self.handle
@@ -580,6 +646,42 @@ pub enum SetViolation {
         /// How many.
         count: usize,
     },
+    /// A lookup returned a record that a removal selecting it had taken: the removal returned
+    /// before the lookup began, and the record's insert returned before the removal began.
+    Resurrected {
+        /// The lookup.
+        lookup: usize,
+        /// The removal.
+        removal: usize,
+        /// The record's id.
+        id: RecordId,
+    },
+    /// A removal counted more records than it could have taken: more than the records it
+    /// selects whose insert began before it ended.
+    OverCounted {
+        /// The removal.
+        removal: usize,
+        /// What it returned.
+        count: usize,
+        /// The records it could have taken.
+        at_most: usize,
+    },
+    /// The removals together counted more records than they could have taken between them: a
+    /// record counted by two of them.
+    CountedTwice {
+        /// Their counts, summed.
+        total: usize,
+        /// The distinct records any of them could have taken.
+        at_most: usize,
+    },
+    /// The removals together counted fewer records than they must have taken: every record some
+    /// removal selects whose insert returned `Stored` before that removal began.
+    Uncounted {
+        /// Their counts, summed.
+        total: usize,
+        /// The records they must have taken.
+        at_least: usize,
+    },
 }
 
 impl fmt::Display for SetViolation {
@@ -604,6 +706,22 @@ impl fmt::Display for SetViolation {
                 write!(f, "lookup #{lookup} returned {id} more than once")
             }
             Self::Torn { lookup, count } => write!(f, "lookup #{lookup} met {count} torn records"),
+            Self::Resurrected { lookup, removal, id } => write!(
+                f,
+                "lookup #{lookup} returned {id}, which removal #{removal} took before the lookup began"
+            ),
+            Self::OverCounted { removal, count, at_most } => write!(
+                f,
+                "removal #{removal} counted {count} records, but could have taken at most {at_most}"
+            ),
+            Self::CountedTwice { total, at_most } => write!(
+                f,
+                "the removals counted {total} records between them, but could have taken at most {at_most}"
+            ),
+            Self::Uncounted { total, at_least } => write!(
+                f,
+                "the removals counted {total} records between them, but must have taken {at_least}"
+            ),
         }
     }
 }
@@ -619,9 +737,19 @@ impl std::error::Error for SetViolation {}
 ///    among those returned (nothing lost);
 /// 3. it met no torn record, and returned no record twice;
 /// 4. every record an earlier lookup of the same thread returned that is valid at its query is
-///    among those returned (reads are monotonic per thread: nothing is forgotten). The caches
-///    have no removal; one that had would exempt here, as in 2, the records removed by an
-///    operation that began before the lookup ended.
+///    among those returned (reads are monotonic per thread: nothing is forgotten).
+///
+/// With removals, 2 and 4 exempt every record that a removal selecting it began before the
+/// lookup ended, and three more rules hold (WF's guarantee, `paper-notes.md`, removal):
+///
+/// 5. a lookup returns no record that a removal selecting it took for certain: the removal
+///    returned before the lookup began, and the record's insert returned before the removal began
+///    (nothing resurrected);
+/// 6. a removal counts at most the records it selects whose insert began before it ended;
+/// 7. when every removal returned, their counts add up to at most the distinct records any of them
+///    could have taken (none counted twice), and at least the records some removal selecting them
+///    must have taken (those whose insert returned `Stored` before that removal began).
+///    Removals that did not return are not checked.
 ///
 /// Pending lookups are not checked. A pending insert whose id is unknown ([`InsertId::Unknown`]:
 /// invoked, never returned) may have stored its record (a WF record is visible before its insert
@@ -722,9 +850,24 @@ pub fn check_set_consistency(
             _ => unreachable!("{id} passed the phantom check"),
         }
     };
+    let a = config.accuracy();
+    // The removals, and whether one selecting `record` began before `end`.
+    let removals: Vec<(usize, Selection, u64)> = ops
+        .iter()
+        .enumerate()
+        .filter_map(|(k, o)| match o.op {
+            CacheOp::Remove { selection, now } => Some((k, selection, now)),
+            _ => None,
+        })
+        .collect();
+    let removed_before = |record: &Record, end: u64| {
+        removals
+            .iter()
+            .any(|&(k, sel, now)| ops[k].invoked < end && sel.selects(record, a, now))
+    };
+    check_removal_counts(ops, &removals, &stored, visible, a)?;
     // Per thread, every id its lookups returned so far, with the latest lookup that returned it.
     let mut seen: HashMap<usize, BTreeMap<RecordId, usize>> = HashMap::new();
-    let a = config.accuracy();
     for (lookup, o, point, normal, ids, torn, end) in lookups() {
         if torn > 0 {
             return Err(SetViolation::Torn {
@@ -750,7 +893,19 @@ pub fn check_set_consistency(
                 Some(&insert) if ops[insert].invoked > end => {
                     return Err(SetViolation::FromTheFuture { lookup, insert, id });
                 }
-                Some(_) => {}
+                Some(&insert) => {
+                    let record = record_of(id);
+                    for &(k, sel, now) in &removals {
+                        let r = &ops[k];
+                        if r.precedes(o) && ops[insert].precedes(r) && sel.selects(record, a, now) {
+                            return Err(SetViolation::Resurrected {
+                                lookup,
+                                removal: k,
+                                id,
+                            });
+                        }
+                    }
+                }
                 // Adopted by a pending insert invoked before every lookup returning it ended.
                 None if adopted.contains_key(&id) => {}
                 None => {
@@ -771,17 +926,18 @@ pub fn check_set_consistency(
                 if ops[insert].precedes(o)
                     && ic::valid_weight(record, point, normal, a).is_some()
                     && ids.binary_search(&id).is_err()
+                    && !removed_before(record, end)
                 {
                     return Err(SetViolation::Lost { lookup, insert, id });
                 }
             }
-            // Monotonic reads. No operation removes a record yet. When one does (eviction), a
-            // record removed by an operation that began before this lookup ended may vanish
-            // legitimately: it must be exempted here (and from `Lost` above), e.g. by taking it
-            // out of the thread's `seen` when the removal is met, before such histories are checked.
+            // Monotonic reads, except for a record a removal that began before this lookup ended
+            // selects: it may have vanished legitimately (as for `Lost` above).
             for (&id, &earlier) in mine.iter() {
-                if ic::valid_weight(record_of(id), point, normal, a).is_some()
+                let record = record_of(id);
+                if ic::valid_weight(record, point, normal, a).is_some()
                     && ids.binary_search(&id).is_err()
+                    && !removed_before(record, end)
                 {
                     return Err(SetViolation::Forgotten {
                         earlier,
@@ -792,6 +948,74 @@ pub fn check_set_consistency(
             }
         }
         mine.extend(ids.iter().map(|&id| (id, lookup)));
+    }
+    Ok(())
+}
+
+/// Rules 6 and 7 of [`check_set_consistency`]: the removals' counts against the records each could
+/// have taken and the records they must have taken.
+fn check_removal_counts(
+    ops: &[super::Operation<CacheOp, CacheRet>],
+    removals: &[(usize, Selection, u64)],
+    stored: &[usize],
+    visible: impl Fn(usize) -> bool,
+    a: f32,
+) -> Result<(), SetViolation> {
+    let record = |k: usize| match &ops[k].op {
+        CacheOp::Insert { record, .. } => record,
+        _ => unreachable!("only inserts are indexed"),
+    };
+    // Inserts that may have stored a record: stored, or pending (named or not).
+    let candidates: Vec<usize> = ops
+        .iter()
+        .enumerate()
+        .filter(|(k, o)| matches!(o.op, CacheOp::Insert { .. }) && visible(*k))
+        .map(|(k, _)| k)
+        .collect();
+    let mut could = std::collections::HashSet::new();
+    let mut must = std::collections::HashSet::new();
+    let mut total = 0;
+    let mut all_returned = true;
+    for &(k, sel, now) in removals {
+        let r = &ops[k];
+        let end = r.returned.unwrap_or(u64::MAX);
+        let mine: Vec<usize> = candidates
+            .iter()
+            .copied()
+            .filter(|&i| ops[i].invoked < end && sel.selects(record(i), a, now))
+            .collect();
+        could.extend(mine.iter().copied());
+        must.extend(
+            stored
+                .iter()
+                .copied()
+                .filter(|&i| ops[i].precedes(r) && sel.selects(record(i), a, now)),
+        );
+        match r.ret {
+            Some(CacheRet::Removed(n)) => {
+                if n > mine.len() {
+                    return Err(SetViolation::OverCounted {
+                        removal: k,
+                        count: n,
+                        at_most: mine.len(),
+                    });
+                }
+                total += n;
+            }
+            _ => all_returned = false,
+        }
+    }
+    if all_returned && total > could.len() {
+        return Err(SetViolation::CountedTwice {
+            total,
+            at_most: could.len(),
+        });
+    }
+    if all_returned && total < must.len() {
+        return Err(SetViolation::Uncounted {
+            total,
+            at_least: must.len(),
+        });
     }
     Ok(())
 }

@@ -385,3 +385,96 @@ fn shuttle_wf_violations_shrink_to_one_of_two_shapes() {
     assert!(four >= 1, "the 4-operation shape is found");
     println!("{}", example.expect("four >= 1"));
 }
+
+/// Removal, one schedule: A is in the root's list before the threads start (inserted and
+/// recorded by worker 2); thread 0 removes at `P` (its selection takes A and B); thread 1 inserts B
+/// (deep) and then looks up at `P`.
+fn removal_scenario() -> History<CacheOp, CacheRet> {
+    let cache = Arc::new(WaitFree::<crate::cache::wf::Minimal>::new(
+        world(),
+        CasFailure::Adopt,
+    ));
+    let recorder = Recorder::new();
+    let mut first = RecordingHandle::new(cache.handle(WorkerId::new(2)), recorder.log(2));
+    first.insert(a()).unwrap();
+    let first = first.into_parts().1;
+    let remover = {
+        let (cache, log) = (Arc::clone(&cache), recorder.log(0));
+        thread::spawn(move || {
+            let mut h = RecordingHandle::new(cache.handle(WorkerId::new(0)), log);
+            h.remove(crate::ic::Selection::touching(P, P).unwrap(), 0);
+            h.into_parts().1
+        })
+    };
+    let inserter = {
+        let (cache, log) = (Arc::clone(&cache), recorder.log(1));
+        thread::spawn(move || {
+            let mut h = RecordingHandle::new(cache.handle(WorkerId::new(1)), log);
+            h.insert(b()).unwrap();
+            h.lookup(P, Vec3::Z);
+            h.into_parts().1
+        })
+    };
+    let logs = [remover.join().unwrap(), inserter.join().unwrap(), first];
+    recorder.into_history(logs)
+}
+
+/// WF's removal keeps its stated guarantee in every schedule (set consistency with the removal
+/// rules), and shuttle finds schedules that are not linearizable. The removal and the lookup walk
+/// the same two nodes, and neither is atomic: the removal counts both A and B (so it follows B's
+/// insert, as the lookup does), yet the lookup sees exactly one of them. Either it saw A in the
+/// root before the removal took it and missed B, which the removal took below before the lookup
+/// got there; or it missed A, already taken, and saw B, not yet taken. Each violation shrinks to
+/// exactly the four operations.
+#[test]
+fn shuttle_wf_removal_is_set_consistent_but_not_linearizable() {
+    let violations = std::sync::Arc::new(AtomicU64::new(0));
+    let counted = std::sync::Arc::clone(&violations);
+    let example = std::sync::Arc::new(std::sync::Mutex::new(None::<String>));
+    let keep = std::sync::Arc::clone(&example);
+    let only_b = std::sync::Arc::new(AtomicU64::new(0));
+    let saw_b = std::sync::Arc::clone(&only_b);
+    let schedules = 1000;
+    Runner::new(PctScheduler::new_from_seed(17, 3, schedules), Config::new()).run(move || {
+        let h = removal_scenario();
+        assert_eq!(h.len(), 4);
+        if let Err(v) = check_set_consistency(&h, &world()) {
+            panic!("WF removal under shuttle: {v}\n{}", h.render(None));
+        }
+        if check(&h, &CacheSpec::new(world())).is_err() {
+            counted.fetch_add(1, Ordering::Relaxed);
+            let (small, f) = shrink_nonlinearizable(&h, &CacheSpec::new(world()));
+            let text = small.render(Some(&f));
+            let ops = small.operations();
+            let removed_two = ops
+                .iter()
+                .any(|o| matches!(o.ret, Some(CacheRet::Removed(2))));
+            let saw_one = ops
+                .iter()
+                .any(|o| matches!(&o.ret, Some(CacheRet::Found { ids, .. }) if ids.len() == 1));
+            if ops
+                .iter()
+                .any(|o| matches!(&o.ret, Some(CacheRet::Found { ids, .. }) if ids.len() == 1 && ids[0].worker() == WorkerId::new(1)))
+            {
+                saw_b.fetch_add(1, Ordering::Relaxed);
+            }
+            assert!(
+                small.len() == 4 && removed_two && saw_one,
+                "a WF removal violation of another shape:\n{text}"
+            );
+            keep.lock().unwrap().get_or_insert(text);
+        }
+    });
+    let found = violations.load(Ordering::Relaxed);
+    let only_b = only_b.load(Ordering::Relaxed);
+    println!(
+        "WF removal under shuttle PCT (seed 17, depth 3): {found} of {schedules} schedules not \
+         linearizable; the lookup saw B alone in {only_b}, A alone in {}",
+        found - only_b
+    );
+    assert!(
+        found >= 1,
+        "shuttle finds the removal that takes B after a lookup saw B without A"
+    );
+    println!("{}", example.lock().unwrap().take().expect("found >= 1"));
+}
