@@ -31,7 +31,7 @@ fi
 
 common=(--in-place --no-shuffle --minimum-test-timeout 20)
 real_thread_suites=(--lib --test agreement --test stress --test robustness --test leaks --test wf_api
-    --test lookup_work)
+    --test lookup_work --test removal --test removal_stress)
 
 # `WFIC_MUTANTS_RESUME=1` keeps the scope's results and runs every stage again with `--iterate`,
 # on the mutants the earlier stages left alive only (after adding a test: the fast stage first,
@@ -164,8 +164,8 @@ run_scope() {
             stage cache no -f 'src/cache/*.rs' --no-default-features --features loom \
                 $(targets loom_lck_lw loom_wf)
             stage cache no -f 'src/cache/*.rs' --no-default-features \
-                $(targets agreement robustness leaks wf_api lookup_work lincheck)
-            stage cache no -f 'src/cache/*.rs' --no-default-features $(targets stress)
+                $(targets agreement robustness leaks wf_api lookup_work lincheck removal lincheck_removal)
+            stage cache no -f 'src/cache/*.rs' --no-default-features $(targets stress removal_stress)
             ;;
         cache-lookup)
             # The files of src/cache/*.rs that the lean read path rewrote (the geometry and the
@@ -182,13 +182,13 @@ run_scope() {
         ic)
             # The maths' unit tests also run under the checker features, where the crate is small.
             stage ic yes -f 'src/ic/**' --features loom -- --lib
-            stage ic no -f 'src/ic/**' -- --lib --test agreement --test robustness --test render
+            stage ic no -f 'src/ic/**' -- --lib --test agreement --test robustness --test render --test removal
             ;;
         lincheck)
             stage lincheck yes -f 'src/lincheck/**' --features shuttle -- --lib
             # The lib's checker tests ran in stage 1 (they are the same under shuttle): only the
             # real-thread suite is new here, and leaving --lib out saves a second crate build.
-            stage lincheck no -f 'src/lincheck/**' -- --test lincheck
+            stage lincheck no -f 'src/lincheck/**' -- --test lincheck --test lincheck_removal
             # What only the loom build compiles (a full model list's refusal).
             stage lincheck no -f 'src/lincheck/**' --features loom -- --lib
             ;;
