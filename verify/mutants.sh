@@ -5,6 +5,8 @@
 #   bash verify/mutants.sh [wf|cache|ic|lincheck|all]      (default: all)
 #   bash verify/mutants.sh wf-lookup|cache-lookup           (the files or functions the lean read
 #                                                            path rewrote, when a scope does not fit)
+#   bash verify/mutants.sh wf-removal                       (the functions of src/cache/wf that
+#                                                            removal added or changed)
 #   bash verify/mutants.sh summary SCOPE                    (rewrite SCOPE's summary.md)
 #
 # Each scope runs as a cascade: every mutant is first tested against the fastest suite that can
@@ -71,6 +73,7 @@ summary() {
     # first stage's count can be stale).
     local re=()
     if [ "$scope" = wf-lookup ]; then re=(--re "$wf_lookup_re"); fi
+    if [ "$scope" = wf-removal ]; then re=(--re "$wf_removal_re"); fi
     cargo mutants --list -f "$filter" "${re[@]}" > "$root/results/mutants/$scope/mutants-now.txt"
     python3 - "$root/results/mutants/$scope" "$(git rev-parse HEAD)" "$version" <<'PY'
 import pathlib, sys, datetime
@@ -120,6 +123,7 @@ print("\n".join(md))
 PY
 }
 
+wf_removal_re='remove|compact|reserved|take|capacity|visit|scan|reclaim|prune|end_frame'
 wf_lookup_re='mark|walk|directory|scan|cold|tail|push_keyed|segment_layout|new_segment|free_segment|WaitFree<O>::key|Directory'
 
 filter_of() {
@@ -127,6 +131,7 @@ filter_of() {
         wf) echo 'src/cache/wf/**' ;;
         cache) echo 'src/cache/*.rs' ;;
         wf-lookup) echo 'src/cache/wf/**' ;;
+        wf-removal) echo 'src/cache/wf/**' ;;
         cache-lookup) echo 'src/cache/{octree,sequential}.rs' ;;
         ic) echo 'src/ic/**' ;;
         lincheck) echo 'src/lincheck/**' ;;
@@ -149,6 +154,13 @@ run_scope() {
             # through the wf scope's stages: for a quick rerun when the whole scope does not fit.
             stage wf-lookup yes -f 'src/cache/wf/**' --re "$wf_lookup_re" --features loom -- --test loom_wf --test loom_orderings --test loom_leaks
             stage wf-lookup no -f 'src/cache/wf/**' --re "$wf_lookup_re" -- "${real_thread_suites[@]}"
+            ;;
+        wf-removal)
+            # The functions of src/cache/wf that removal (issue 13) added or changed (the slot
+            # state, the scan's visitor, removal, compaction, reclamation, the frame's close),
+            # through the wf scope's stages.
+            stage wf-removal yes -f 'src/cache/wf/**' --re "$wf_removal_re" --features loom -- --test loom_wf --test loom_orderings --test loom_leaks
+            stage wf-removal no -f 'src/cache/wf/**' --re "$wf_removal_re" -- "${real_thread_suites[@]}"
             ;;
         cache)
             # Every stage builds without the renderer (`--no-default-features`): none of these

@@ -20,7 +20,7 @@ pub struct Selection(Kind);
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Kind {
-    Touching { min: Vec3, max: Vec3 },
+    Touching { min: Vec3, max: Vec3, margin: f32 },
     OlderThan { frames: u16 },
 }
 
@@ -41,6 +41,8 @@ pub enum SelectionError {
         /// The corner given as the maximum.
         max: Vec3,
     },
+    /// A margin that is negative or not finite.
+    BadMargin(f32),
 }
 
 impl fmt::Display for SelectionError {
@@ -53,6 +55,9 @@ impl fmt::Display for SelectionError {
                 f,
                 "removal box {min} .. {max} is inverted: its minimum exceeds its maximum on some axis"
             ),
+            Self::BadMargin(m) => {
+                write!(f, "removal margin {m} is not a finite distance of 0 or more")
+            }
         }
     }
 }
@@ -62,14 +67,21 @@ impl std::error::Error for SelectionError {}
 impl fmt::Display for Selection {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self.0 {
-            Kind::Touching { min, max } if min == max => {
-                write!(f, "touching ({:.2},{:.2},{:.2})", min.x, min.y, min.z)
+            Kind::Touching { min, max, margin } => {
+                if min == max {
+                    write!(f, "touching ({:.2},{:.2},{:.2})", min.x, min.y, min.z)?;
+                } else {
+                    write!(
+                        f,
+                        "touching ({:.2},{:.2},{:.2})..({:.2},{:.2},{:.2})",
+                        min.x, min.y, min.z, max.x, max.y, max.z
+                    )?;
+                }
+                if margin > 0.0 {
+                    write!(f, " + {margin:.2}")?;
+                }
+                Ok(())
             }
-            Kind::Touching { min, max } => write!(
-                f,
-                "touching ({:.2},{:.2},{:.2})..({:.2},{:.2},{:.2})",
-                min.x, min.y, min.z, max.x, max.y, max.z
-            ),
             Kind::OlderThan { frames } => write!(f, "older than {frames} frames"),
         }
     }
@@ -90,7 +102,30 @@ impl Selection {
         if min.cmpgt(max).any() {
             return Err(SelectionError::InvertedBox { min, max });
         }
-        Ok(Self(Kind::Touching { min, max }))
+        Ok(Self(Kind::Touching {
+            min,
+            max,
+            margin: 0.0,
+        }))
+    }
+
+    /// The records whose influence sphere, grown by `margin`, meets the closed box `[min, max]`:
+    /// for a moved object whose effect reaches farther than the records' own influence (a record
+    /// beside a moved block sees it fill part of its hemisphere, however small its radius). An
+    /// object that fills a solid angle `A / d^2` of a point's view changes its irradiance by
+    /// about `A / (pi d^2)` of itself; at `margin = sqrt(A / (pi a))` that is the cache's own
+    /// accuracy `a`.
+    ///
+    /// # Errors
+    /// As [`Selection::touching`], and a margin that is negative or not finite.
+    pub fn near(min: Vec3, max: Vec3, margin: f32) -> Result<Self, SelectionError> {
+        if !(margin.is_finite() && margin >= 0.0) {
+            return Err(SelectionError::BadMargin(margin));
+        }
+        let Self(Kind::Touching { .. }) = Self::touching(min, max)? else {
+            unreachable!("touching makes a box selection")
+        };
+        Ok(Self(Kind::Touching { min, max, margin }))
     }
 
     /// The records inserted more than `frames` frames before the frame the removal runs in
@@ -106,10 +141,10 @@ impl Selection {
     #[inline]
     pub fn selects(&self, record: &Record, accuracy: f32, now: u64) -> bool {
         match self.0 {
-            Kind::Touching { min, max } => {
+            Kind::Touching { min, max, margin } => {
                 // Squared distance from the centre to the box: zero inside it.
                 let nearest = record.position.clamp(min, max);
-                let reach = influence_radius(record, accuracy);
+                let reach = influence_radius(record, accuracy) + margin;
                 (record.position - nearest).length_squared() <= reach * reach
             }
             Kind::OlderThan { frames } => {
@@ -125,7 +160,9 @@ impl Selection {
     #[inline]
     pub fn may_select_within(&self, lo: Vec3, hi: Vec3) -> bool {
         match self.0 {
-            Kind::Touching { min, max } => !(hi.cmplt(min).any() || lo.cmpgt(max).any()),
+            Kind::Touching { min, max, margin } => {
+                !((hi + margin).cmplt(min).any() || (lo - margin).cmpgt(max).any())
+            }
             Kind::OlderThan { .. } => true,
         }
     }
@@ -176,6 +213,34 @@ mod tests {
         assert!(e.to_string().contains("not finite"), "{e}");
         // A flat box (a plane's swept bounds) is fine.
         assert!(Selection::touching(Vec3::ZERO, Vec3::new(1.0, 0.0, 1.0)).is_ok());
+    }
+
+    #[test]
+    fn a_margin_grows_every_influence_sphere() {
+        // Influence 1 (radius 2, a = 0.5), centre 1.9 beyond the face x = 1: missed by the box,
+        // met with a margin of 0.9 or more.
+        let r = at(Vec3::new(2.9, 0.5, 0.5), 2.0, 0);
+        assert!(!Selection::touching(Vec3::ZERO, Vec3::ONE)
+            .unwrap()
+            .selects(&r, 0.5, 0));
+        assert!(!Selection::near(Vec3::ZERO, Vec3::ONE, 0.85)
+            .unwrap()
+            .selects(&r, 0.5, 0));
+        assert!(Selection::near(Vec3::ZERO, Vec3::ONE, 0.95)
+            .unwrap()
+            .selects(&r, 0.5, 0));
+        // The subtree test grows with it.
+        let s = Selection::near(Vec3::ZERO, Vec3::ONE, 0.5).unwrap();
+        assert!(s.may_select_within(Vec3::new(1.4, 0.0, 0.0), Vec3::splat(3.0)));
+        assert!(!s.may_select_within(Vec3::new(1.6, 0.0, 0.0), Vec3::splat(3.0)));
+        let e = Selection::near(Vec3::ZERO, Vec3::ONE, -1.0).unwrap_err();
+        assert_eq!(e, SelectionError::BadMargin(-1.0));
+        assert!(e.to_string().contains("margin"), "{e}");
+        assert!(Selection::near(Vec3::ONE, Vec3::ZERO, 1.0).is_err());
+        assert_eq!(
+            s.to_string(),
+            "touching (0.00,0.00,0.00)..(1.00,1.00,1.00) + 0.50"
+        );
     }
 
     #[test]

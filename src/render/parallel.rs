@@ -9,6 +9,7 @@ use super::scene::Scene;
 use super::stats::FrameStats;
 use super::{Camera, RenderSettings};
 use crate::cache::{CacheConfig, CacheHandle, CacheJob, IrradianceCache, NoCache, Scheme};
+use crate::ic::{Selection, WorkerId};
 use crate::sync::{AtomicUsize, Ordering};
 use glam::Vec3;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
@@ -153,6 +154,21 @@ pub fn render_frame<C: IrradianceCache>(
     cache: &mut C,
     threads: usize,
 ) -> FrameResult {
+    render_frame_removing(scene, camera, settings, cache, threads, None)
+}
+
+/// [`render_frame`], with worker 0 first removing what `removal` selects through its handle
+/// ([`crate::cache::CacheHandle::remove`]), while the other workers already shade: for a scene
+/// that changed since the cache's last frame. The frame's time includes the removal; the
+/// statistics count what it took ([`FrameStats::removed`]).
+pub fn render_frame_removing<C: IrradianceCache>(
+    scene: &Scene,
+    camera: &Camera,
+    settings: &RenderSettings,
+    cache: &mut C,
+    threads: usize,
+    removal: Option<&Selection>,
+) -> FrameResult {
     let start = Instant::now();
     let threads = threads.max(1);
     let scheme = cache.scheme();
@@ -165,7 +181,12 @@ pub fn render_frame<C: IrradianceCache>(
     );
     let next_tile = AtomicUsize::new(0);
     let frame = cache.frame();
-    let work = |handle: &mut _, _| tile_loop(&integrator, &tiles, &next_tile, &bar, handle);
+    let work = |handle: &mut C::Handle<'_>, worker: WorkerId| {
+        if let Some(selection) = removal.filter(|_| worker == WorkerId::new(0)) {
+            handle.remove(selection);
+        }
+        tile_loop(&integrator, &tiles, &next_tile, &bar, handle)
+    };
     let outputs = match settings.pool {
         Pool::Scoped => frame.run(threads, work),
         Pool::Rayon => {

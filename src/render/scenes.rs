@@ -147,6 +147,44 @@ fn v(x: f32, y: f32, z: f32) -> Vec3 {
 /// versions); the light emits `(17, 12, 4)`. The camera is the published one (35 mm lens, 25 mm
 /// film: a 39.3° field of view).
 pub fn cornell() -> Result<Scene, SceneError> {
+    cornell_with_short_block_at(Vec3::ZERO, "cornell")
+}
+
+/// The short block's corners in the published Cornell box, in millimetres: its bounds are
+/// `x` 82..290, `y` 0..165, `z` 65..272.
+const SHORT_BLOCK_MM: ([f32; 3], [f32; 3]) = ([82.0, 0.0, 65.0], [290.0, 165.0, 272.0]);
+
+/// How far the short block of `cornell-moving` slides over its animation (metres): 240 mm towards
+/// the red wall and 60 mm towards the open front, from its published place to about 20 mm short
+/// of the red wall and 5 mm short of the front edge. The diagonal keeps its back corner in front
+/// of the tall block's front face all the way (the face runs from (265, 296) to (423, 247) mm in
+/// x, z; the corner moves from (240, 272) to (480, 212)).
+pub const CORNELL_SLIDE: Vec3 = Vec3::new(0.24, 0.0, -0.06);
+
+/// The short block's bounds (metres) when it is moved by `offset`.
+pub fn short_block_bounds(offset: Vec3) -> (Vec3, Vec3) {
+    let (lo, hi) = SHORT_BLOCK_MM;
+    (
+        Vec3::from(lo) * 0.001 + offset,
+        Vec3::from(hi) * 0.001 + offset,
+    )
+}
+
+/// `cornell-moving` at `t` in `[0, 1]` of its animation: the Cornell box with the short block
+/// slid `t * CORNELL_SLIDE` along the floor (everything else, the camera
+/// included, as in [`cornell`]). The scene a dynamic cache must keep up with: the records the
+/// block's old and new places touch become wrong.
+pub fn cornell_moving(t: f32) -> Result<Scene, SceneError> {
+    if !(0.0..=1.0).contains(&t) {
+        return Err(SceneError::Load(format!(
+            "cornell-moving: t = {t} is outside the animation's [0, 1]"
+        )));
+    }
+    cornell_with_short_block_at(CORNELL_SLIDE * t, "cornell-moving")
+}
+
+/// The Cornell box with its short block moved by `offset` (metres), named `name`.
+fn cornell_with_short_block_at(offset: Vec3, name: &str) -> Result<Scene, SceneError> {
     let mut b = SceneBuilder::new();
     let white = b.material(Material::diffuse(v(0.725, 0.71, 0.68)));
     let red = b.material(Material::diffuse(v(0.63, 0.065, 0.05)));
@@ -252,7 +290,8 @@ pub fn cornell() -> Result<Scene, SceneError> {
             [82.0, 0.0, 225.0],
         ],
     ] {
-        quad(&mut b, q, white);
+        let p = q.map(|[x, y, z]| mm(x, y, z) + offset);
+        b.quad(p[0], p[1], p[2], p[3], white);
     }
     // Tall block.
     for q in [
@@ -302,7 +341,7 @@ pub fn cornell() -> Result<Scene, SceneError> {
         look_height: 0.15,
         vfov_degrees: 70.0,
     };
-    b.build("cornell", camera, orbit)
+    b.build(name, camera, orbit)
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -69,6 +69,8 @@ pub struct FrameStats {
     pub rays: RayCounts,
     /// Time spent in hemisphere sampling, summed over workers (for rays per second per core).
     pub hemisphere_seconds: f64,
+    /// Records removed during the frame (and, for LW, at its merge).
+    pub removed: u64,
     /// Records in the cache after the frame.
     pub cache_records: usize,
     /// Each worker's busy time: from its first look at the tile queue to finding it empty
@@ -112,6 +114,7 @@ impl FrameStats {
             rejected: w.rejected,
             rays: counters.rays,
             hemisphere_seconds: counters.hemisphere.as_secs_f64(),
+            removed: w.removed,
             cache_records,
             worker_seconds: Vec::new(),
         }
