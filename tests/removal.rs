@@ -194,7 +194,37 @@ impl SchemeCheck for RemovesByAge {
         assert_eq!(cache.stats().records, 100, "{scheme}");
         assert_eq!(cache.remove(&Selection::older_than(0)), 100, "{scheme}");
         assert_eq!(cache.stats().records, 0, "{scheme}");
+        // Removals between frames count in the totals; nothing is left, not even a node below
+        // the root (reclaimed at once).
+        assert_eq!(cache.stats().totals.removed, 200, "{scheme}");
+        assert_eq!(
+            cache.stats().nodes,
+            1,
+            "{scheme}: nodes left after removing everything"
+        );
     }
+}
+
+/// WF's removal between frames reclaims at once: no removed slot outlives the call.
+#[test]
+fn a_removal_between_frames_reclaims_wf_slots_at_once() {
+    let mut cache = WaitFree::adopt(config());
+    let frame = cache.frame();
+    let mut h = frame.handle_for(w(0));
+    for r in records(300, 6) {
+        h.insert(r).unwrap();
+    }
+    drop(h);
+    frame.close();
+    assert_eq!(cache.reserved_slots(), 300);
+    let removed = cache.remove(&Selection::touching(Vec3::ZERO, Vec3::splat(5.0)).unwrap());
+    assert!(removed > 30 && removed < 270, "{removed}");
+    assert_eq!(
+        cache.reserved_slots(),
+        300 - removed,
+        "removed slots outlived the removal"
+    );
+    assert_eq!(cache.stats().records, 300 - removed);
 }
 
 #[test]
