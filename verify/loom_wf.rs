@@ -187,6 +187,16 @@ fn a_full_list_refuses_the_next_insert() {
         // past it) and still find all fourteen records.
         let found = h.lookup(glam::Vec3::new(2.0, 2.0, 2.0), glam::Vec3::Z);
         assert_eq!(found.map(|f| f.records), Some(14), "{found:?}");
+        drop(h);
+        // The slots that exist, not the reservations: 14, though the head counts 15. A removal
+        // and its reclamation leave none.
+        let mut cache = cache;
+        assert_eq!(cache.reserved_slots(), 14);
+        let p = loom_common::root_record(0.0).position;
+        let all = wfic::ic::Selection::touching(p, p).unwrap();
+        // Every root record's influence covers the world: a point selection takes all 14.
+        assert_eq!(cache.remove(&all), 14);
+        assert_eq!((cache.reserved_slots(), cache.stats().records), (0, 0));
     });
 }
 

@@ -572,10 +572,13 @@ pub fn two_removals_of_overlapping_sets<O: Orderings>() -> bool {
     let second = remove_one(&*cache, 3, &both);
     let first = t.join().unwrap();
     assert!(first <= 1, "the point selection took {first}");
-    assert_eq!(
-        first + second,
-        2,
-        "a record was removed twice, or not at all"
+    assert!(
+        first + second <= 2,
+        "a record was removed twice: {first} + {second}"
+    );
+    assert!(
+        first + second >= 2,
+        "a record was not removed: {first} + {second}"
     );
     for p in [a.position, b.position] {
         assert!(
