@@ -109,7 +109,8 @@ pub enum CasFailure {
 /// `_owns` marker makes the node's auto traits those of the `Box`es it really owns (as
 /// `RecordList`'s marker does for its segments). Sharing a node is sound because a child is only
 /// dereferenced after an Acquire load saw its Release publication, is never changed or freed
-/// while the tree is shared (only `Drop`, with `&mut`, frees it), and is read only through `&`.
+/// while the tree is shared (only `Drop` and `WaitFree::reclaim`, both with `&mut`, free one), and
+/// is read only through `&`.
 #[repr(C)]
 struct Node<O: Orderings> {
     /// Bit `o` set once `children[o]` is published and its publisher, or an insert that walked
@@ -118,8 +119,9 @@ struct Node<O: Orderings> {
     /// The list's head and first segment pointer. With the mask, the 24 bytes a walk reads of
     /// every node it visits; a leaf costs no more.
     records: RecordList<O>,
-    /// Null, or a child published by a Release compare-and-swap and never changed again. Read
-    /// only where the mask says a child whose loose cell holds the query was published.
+    /// Null, or a child published by a Release compare-and-swap and never changed again while the
+    /// tree is shared (`reclaim`, with `&mut`, unlinks an emptied one). Read only where the mask
+    /// says a child whose loose cell holds the query was published.
     children: [AtomicPtr<Node<O>>; 8],
     /// The node owns its children as boxes (see the type's documentation).
     _owns: PhantomData<[Box<Node<O>>; 8]>,
@@ -163,9 +165,9 @@ impl<O: Orderings> Node<O> {
                 "a lookup saw a mask bit without its published child"
             );
         }
-        // SAFETY: non-null by the argument above (checked just above where it is cheap); from `Box::into_raw` in `graft` or `build_path`,
-        // published once and freed only when the cache (`&mut`) is dropped, which `&self` rules
-        // out.
+        // SAFETY: non-null by the argument above (checked just above where it is cheap); from
+        // `Box::into_raw` in `graft` or `build_path`, published once and freed only with `&mut`
+        // access to the cache (its drop, or `reclaim`), which `&self` rules out.
         unsafe { &*child }
     }
 
@@ -177,7 +179,8 @@ impl<O: Orderings> Node<O> {
         // is visible before we read through the pointer.
         let child = self.children[octant.index()].load(ord::<O>(Site::ChildRead));
         // SAFETY: a non-null child pointer came from `Box::into_raw` in `graft`, was published
-        // once and is freed only when the cache (`&mut`) is dropped, which `&self` rules out.
+        // once and is freed only with `&mut` access to the cache (its drop, or `reclaim`), which
+        // `&self` rules out.
         unsafe { child.as_ref() }
     }
 }
