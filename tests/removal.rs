@@ -34,6 +34,17 @@ fn records(n: usize, seed: u64) -> Vec<Record> {
         .collect()
 }
 
+/// One frame in which worker 0 inserts `records`.
+fn insert_frame<C: IrradianceCache>(cache: &mut C, records: &[Record]) {
+    let frame = cache.frame();
+    let mut h = frame.handle_for(w(0));
+    for r in records {
+        h.insert(*r).expect("valid record");
+    }
+    drop(h);
+    frame.close();
+}
+
 /// The ids (worker, seq) of the valid records at `p`, sorted.
 fn valid_ids(h: &mut impl CacheHandle, p: Vec3, n: Vec3) -> Vec<(u32, u64)> {
     let mut out = Vec::new();
@@ -167,20 +178,8 @@ impl SchemeCheck for RemovesByAge {
     fn check<C: IrradianceCache>(&mut self, mut cache: C) {
         let scheme = cache.scheme();
         let all = records(200, 2);
-        let frame = cache.frame();
-        let mut h = frame.handle_for(w(0));
-        for r in &all[..100] {
-            h.insert(*r).unwrap();
-        }
-        drop(h);
-        frame.close();
-        let frame = cache.frame();
-        let mut h = frame.handle_for(w(0));
-        for r in &all[100..] {
-            h.insert(*r).unwrap();
-        }
-        drop(h);
-        frame.close();
+        insert_frame(&mut cache, &all[..100]);
+        insert_frame(&mut cache, &all[100..]);
         // Between frames: the next frame is 2; frame 0's records are 2 old, frame 1's 1.
         assert_eq!(cache.remove(&Selection::older_than(1)), 100, "{scheme}");
         assert_eq!(
@@ -209,13 +208,7 @@ impl SchemeCheck for RemovesByAge {
 #[test]
 fn a_removal_between_frames_reclaims_wf_slots_at_once() {
     let mut cache = WaitFree::adopt(config());
-    let frame = cache.frame();
-    let mut h = frame.handle_for(w(0));
-    for r in records(300, 6) {
-        h.insert(r).unwrap();
-    }
-    drop(h);
-    frame.close();
+    insert_frame(&mut cache, &records(300, 6));
     assert_eq!(cache.reserved_slots(), 300);
     let removed = cache.remove(&Selection::touching(Vec3::ZERO, Vec3::splat(5.0)).unwrap());
     assert!(removed > 30 && removed < 270, "{removed}");
@@ -239,13 +232,7 @@ impl SchemeCheck for OverlappingRemovals {
     fn check<C: IrradianceCache>(&mut self, mut cache: C) {
         let scheme = cache.scheme();
         let all = records(400, 3);
-        let frame = cache.frame();
-        let mut h = frame.handle_for(w(0));
-        for r in &all {
-            h.insert(*r).unwrap();
-        }
-        drop(h);
-        frame.close();
+        insert_frame(&mut cache, &all);
         let before = cache.snapshot();
         let a = cache.config().accuracy();
         let s1 = Selection::touching(Vec3::splat(1.0), Vec3::splat(6.0)).unwrap();

@@ -418,3 +418,43 @@ pub fn sponza() -> Result<Scene, SceneError> {
     };
     real("sponza", "sponza.obj.gz", camera, orbit)
 }
+
+#[cfg(all(test, not(checker)))]
+mod tests {
+    use super::*;
+
+    /// `cornell-moving` moves exactly the short block's ten triangles, by the slide, and
+    /// `short_block_bounds` bounds them: the bounds the dynamic experiment removes around are
+    /// the block's, not a guess.
+    #[test]
+    fn the_moving_cornell_box_moves_the_short_block_and_its_bounds_hold_it() {
+        let key = |t: &[Vec3; 3]| t.map(|p| (p * 1e4).round().as_ivec3().to_array());
+        let still: Vec<_> = cornell()
+            .unwrap()
+            .triangles()
+            .iter()
+            .map(|(t, _)| key(t))
+            .collect();
+        let moved = cornell_moving(1.0).unwrap().triangles();
+        let (lo, hi) = short_block_bounds(CORNELL_SLIDE);
+        let mut shifted = 0;
+        for (t, _) in &moved {
+            if still.contains(&key(t)) {
+                continue;
+            }
+            shifted += 1;
+            let back = t.map(|p| p - CORNELL_SLIDE);
+            assert!(still.contains(&key(&back)), "{t:?} is no slid triangle");
+            for p in t {
+                assert!(
+                    p.cmpge(lo - 1e-5).all() && p.cmple(hi + 1e-5).all(),
+                    "{p} outside the block's bounds {lo}..{hi}"
+                );
+            }
+        }
+        assert_eq!(shifted, 10, "the short block's five quads");
+        assert_eq!(moved.len(), still.len());
+        assert!(cornell_moving(1.01).is_err() && cornell_moving(-0.1).is_err());
+        assert_eq!(cornell_moving(0.0).unwrap().name(), "cornell-moving");
+    }
+}
