@@ -7,6 +7,10 @@
 #                                                            path rewrote, when a scope does not fit)
 #   bash verify/mutants.sh wf-removal                       (the functions of src/cache/wf that
 #                                                            removal added or changed)
+#   bash verify/mutants.sh cache-removal|ic-removal|lincheck-removal
+#                                                           (the lines of src/cache/*.rs, src/ic or
+#                                                            src/lincheck that removal changed: the
+#                                                            diff from $removal_base, --in-diff)
 #   bash verify/mutants.sh summary SCOPE                    (rewrite SCOPE's summary.md)
 #
 # Each scope runs as a cascade: every mutant is first tested against the fastest suite that can
@@ -74,6 +78,9 @@ summary() {
     local re=()
     if [ "$scope" = wf-lookup ]; then re=(--re "$wf_lookup_re"); fi
     if [ "$scope" = wf-removal ]; then re=(--re "$wf_removal_re"); fi
+    if [ -f "$root/results/mutants/$scope/diff.patch" ]; then
+        re=(--in-diff "$root/results/mutants/$scope/diff.patch")
+    fi
     cargo mutants --list -f "$filter" "${re[@]}" > "$root/results/mutants/$scope/mutants-now.txt"
     python3 - "$root/results/mutants/$scope" "$(git rev-parse HEAD)" "$version" <<'PY'
 import pathlib, sys, datetime
@@ -123,6 +130,20 @@ print("\n".join(md))
 PY
 }
 
+# The commit before removal (issue 13) began: the *-removal scopes mutate the lines changed since.
+removal_base=22179d0
+# diff_of SCOPE: the --in-diff options of a *-removal scope (the diff is kept beside its results).
+diff_of() {
+    local scope=$1 out="$root/results/mutants/$1"
+    case $scope in
+        cache-removal) git diff "$removal_base" -- 'src/cache/*.rs' > "$out/diff.patch" ;;
+        ic-removal) git diff "$removal_base" -- src/ic > "$out/diff.patch" ;;
+        lincheck-removal) git diff "$removal_base" -- src/lincheck > "$out/diff.patch" ;;
+        *) return 0 ;;
+    esac
+    echo --in-diff "$out/diff.patch"
+}
+
 wf_removal_re='remove|compact|reserved|take|capacity|visit|scan|reclaim|prune|end_frame'
 wf_lookup_re='mark|walk|directory|scan|cold|tail|push_keyed|segment_layout|new_segment|free_segment|WaitFree<O>::key|Directory'
 
@@ -133,8 +154,9 @@ filter_of() {
         wf-lookup) echo 'src/cache/wf/**' ;;
         wf-removal) echo 'src/cache/wf/**' ;;
         cache-lookup) echo 'src/cache/{octree,sequential}.rs' ;;
-        ic) echo 'src/ic/**' ;;
-        lincheck) echo 'src/lincheck/**' ;;
+        cache-removal) echo 'src/cache/*.rs' ;;
+        ic | ic-removal) echo 'src/ic/**' ;;
+        lincheck | lincheck-removal) echo 'src/lincheck/**' ;;
     esac
 }
 
@@ -143,6 +165,10 @@ run_scope() {
     local filter
     filter=$(filter_of "$scope")
     [ "$resume" = 1 ] || rm -rf "$root/results/mutants/$scope"
+    mkdir -p "$root/results/mutants/$scope"
+    local d
+    # shellcheck disable=SC2207
+    d=($(diff_of "$scope"))
     case $scope in
         wf)
             stage wf yes -f 'src/cache/wf/**' --features loom -- --test loom_wf --test loom_orderings --test loom_leaks
@@ -191,18 +217,27 @@ run_scope() {
                 $(targets agreement robustness leaks wf_api lookup_work lincheck)
             stage cache-lookup no "${f[@]}" --no-default-features $(targets stress)
             ;;
-        ic)
-            # The maths' unit tests also run under the checker features, where the crate is small.
-            stage ic yes -f 'src/ic/**' --features loom -- --lib
-            stage ic no -f 'src/ic/**' -- --lib --test agreement --test robustness --test render --test removal
+        cache-removal)
+            # The lines of src/cache/*.rs that removal changed, through the cache scope's stages.
+            stage "$scope" yes -f 'src/cache/*.rs' "${d[@]}" --no-default-features --cargo-arg=--lib
+            stage "$scope" no -f 'src/cache/*.rs' "${d[@]}" --no-default-features --features loom \
+                $(targets loom_lck_lw loom_wf)
+            stage "$scope" no -f 'src/cache/*.rs' "${d[@]}" --no-default-features \
+                $(targets agreement robustness leaks wf_api lookup_work lincheck removal lincheck_removal)
+            stage "$scope" no -f 'src/cache/*.rs' "${d[@]}" --no-default-features $(targets stress removal_stress)
             ;;
-        lincheck)
-            stage lincheck yes -f 'src/lincheck/**' --features shuttle -- --lib
+        ic | ic-removal)
+            # The maths' unit tests also run under the checker features, where the crate is small.
+            stage "$scope" yes -f 'src/ic/**' "${d[@]}" --features loom -- --lib
+            stage "$scope" no -f 'src/ic/**' "${d[@]}" -- --lib --test agreement --test robustness --test render --test removal
+            ;;
+        lincheck | lincheck-removal)
+            stage "$scope" yes -f 'src/lincheck/**' "${d[@]}" --features shuttle -- --lib
             # The lib's checker tests ran in stage 1 (they are the same under shuttle): only the
             # real-thread suite is new here, and leaving --lib out saves a second crate build.
-            stage lincheck no -f 'src/lincheck/**' -- --test lincheck --test lincheck_removal
+            stage "$scope" no -f 'src/lincheck/**' "${d[@]}" -- --test lincheck --test lincheck_removal
             # What only the loom build compiles (a full model list's refusal).
-            stage lincheck no -f 'src/lincheck/**' --features loom -- --lib
+            stage "$scope" no -f 'src/lincheck/**' "${d[@]}" --features loom -- --lib
             ;;
         *)
             echo "unknown scope $scope (wf, cache, ic, lincheck or all)" >&2
