@@ -47,6 +47,14 @@ pub struct DynamicArgs {
     /// Threads of the parallel schemes (TRA runs on 1).
     #[arg(long, default_value_t = 2)]
     pub threads: usize,
+    /// Times the removal mode is rendered per scheme, the schemes interleaved; each frame's time
+    /// is their median (default 3, quick 1).
+    #[arg(long)]
+    pub passes: Option<usize>,
+    /// Further tolerances of the removal's selection, as multiples of the accuracy, rendered
+    /// with WF (default 0.5,2,4,8; quick 4).
+    #[arg(long, value_delimiter = ',')]
+    pub sweep: Vec<f32>,
     /// Schemes (default: tra, lck, lw, wf).
     #[arg(long, value_enum, value_delimiter = ',')]
     pub schemes: Vec<Scheme>,
@@ -278,6 +286,14 @@ pub fn run(command: ReproduceCommand) -> Result<(), String> {
                 threads: a.threads,
                 schemes,
                 settings,
+                passes: a.passes.unwrap_or(if a.quick { 1 } else { 3 }),
+                sweep: if !a.sweep.is_empty() {
+                    a.sweep.clone()
+                } else if a.quick {
+                    vec![4.0]
+                } else {
+                    vec![0.5, 2.0, 4.0, 8.0]
+                },
             };
             let threads: Vec<usize> = config
                 .schemes
@@ -285,7 +301,11 @@ pub fn run(command: ReproduceCommand) -> Result<(), String> {
                 .map(|s| config.threads_of(*s))
                 .collect();
             println!("{}", machine.banner(&threads));
-            let pb = bar(config.frames * (1 + 4 * config.schemes.len()), a.quiet);
+            let renders = 1
+                + (dynamic::Mode::ALL.len() + config.passes.saturating_sub(1))
+                    * config.schemes.len()
+                + config.passes * config.sweep.len();
+            let pb = bar(config.frames * renders, a.quiet);
             let mut first = true;
             let start = std::time::Instant::now();
             let d = dynamic::run(&config, &machine, &mut |label| {

@@ -7,6 +7,12 @@
 //!   it the swept bounds of an object that moved. It is a local test: it takes out the records
 //!   whose valid region the object entered or left, not those the object shadows or lights from
 //!   farther away, which no local test can find (`paper-notes.md`, removal).
+//! * [`Selection::near`]: the same with every sphere grown by a margin, for an object whose light
+//!   and shadow reach farther than the records' own influence.
+//! * [`Selection::moving`]: for an object that moves a known step a frame, a margin that grows
+//!   with how far the object has moved *since each record was computed*: a record beside the
+//!   object goes every frame, one farther away only once the object has moved far enough to
+//!   change what it sees by more than a tolerance.
 //! * [`Selection::older_than`]: every record inserted more than `n` frames before the frame the
 //!   removal runs in, for caches that are refreshed by age.
 
@@ -20,8 +26,25 @@ pub struct Selection(Kind);
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Kind {
-    Touching { min: Vec3, max: Vec3, margin: f32 },
-    OlderThan { frames: u16 },
+    Touching {
+        min: Vec3,
+        max: Vec3,
+        margin: f32,
+    },
+    /// An object now in `[min, max]` that moved by `step` in each of the last `frames` frames
+    /// (and stood still before); `k = size / (pi tolerance)`, its face's edge over the tolerated
+    /// change, so that the margin at displacement `d` is `sqrt(min(d, size) k)`.
+    Moving {
+        min: Vec3,
+        max: Vec3,
+        step: Vec3,
+        frames: u16,
+        size: f32,
+        k: f32,
+    },
+    OlderThan {
+        frames: u16,
+    },
 }
 
 /// A selection that could not be made.
@@ -43,6 +66,10 @@ pub enum SelectionError {
     },
     /// A margin that is negative or not finite.
     BadMargin(f32),
+    /// A step that is not finite.
+    BadStep(Vec3),
+    /// A tolerance that is not a finite fraction above 0.
+    BadTolerance(f32),
 }
 
 impl fmt::Display for SelectionError {
@@ -57,6 +84,10 @@ impl fmt::Display for SelectionError {
             ),
             Self::BadMargin(m) => {
                 write!(f, "removal margin {m} is not a finite distance of 0 or more")
+            }
+            Self::BadStep(s) => write!(f, "removal step {s} is not a finite displacement"),
+            Self::BadTolerance(t) => {
+                write!(f, "removal tolerance {t} is not a finite fraction above 0")
             }
         }
     }
@@ -82,9 +113,37 @@ impl fmt::Display for Selection {
                 }
                 Ok(())
             }
+            Kind::Moving {
+                min,
+                max,
+                step,
+                frames,
+                size,
+                k,
+            } => write!(
+                f,
+                "moving ({:.2},{:.2},{:.2})..({:.2},{:.2},{:.2}) by ({:.3},{:.3},{:.3}) a frame \
+                 for {frames} frames, tolerance {:.2}",
+                min.x,
+                min.y,
+                min.z,
+                max.x,
+                max.y,
+                max.z,
+                step.x,
+                step.y,
+                step.z,
+                size / (std::f32::consts::PI * k)
+            ),
             Kind::OlderThan { frames } => write!(f, "older than {frames} frames"),
         }
     }
+}
+
+/// Distance from `p` to the closed box `[min, max]`, squared (zero inside it).
+#[inline]
+fn to_box_squared(p: Vec3, min: Vec3, max: Vec3) -> f32 {
+    (p - p.clamp(min, max)).length_squared()
 }
 
 /// Frames are numbered modulo 2^16 in record ids ([`super::RecordId::frame`]).
@@ -128,6 +187,51 @@ impl Selection {
         Ok(Self(Kind::Touching { min, max, margin }))
     }
 
+    /// For an object that is now in the box `[min, max]` and moved by `step` in each of the last
+    /// `frames` frames (standing still before): the records whose light it changed by more than
+    /// `tolerance` (a fraction; give the cache's accuracy `a`) since they were computed.
+    ///
+    /// A record computed `age` frames ago (counted up to `frames`) saw the object displaced by
+    /// `d = |step| age` from where it is now, somewhere in the box swept between the two places.
+    /// Seen from a point at distance `r`, a face of edge `s` (the square root of the bounds'
+    /// largest face) that moves by `d` across the view uncovers and covers about `d s` of area on
+    /// each side, at most its own `s^2` once `d >= s`: a change of about `min(d, s) s / (pi r^2)`
+    /// of the point's irradiance. The record is taken when its influence sphere, grown by the
+    /// `r` at which that equals `tolerance`, `sqrt(min(d, s) s / (pi tolerance))`, meets the swept
+    /// box. A record beside the object goes every frame; one farther away only when the object has
+    /// moved far enough since it was computed; one computed in the frame the removal runs in
+    /// (`age` 0, with the object where it is now) never. Once `d >= s` the margin is
+    /// [`Selection::near`]'s, `sqrt(A / (pi a))`.
+    ///
+    /// # Errors
+    /// As [`Selection::touching`]; a step that is not finite; a tolerance that is not a finite
+    /// number above 0.
+    pub fn moving(
+        min: Vec3,
+        max: Vec3,
+        step: Vec3,
+        frames: u16,
+        tolerance: f32,
+    ) -> Result<Self, SelectionError> {
+        Self::touching(min, max)?;
+        if !step.is_finite() {
+            return Err(SelectionError::BadStep(step));
+        }
+        if !(tolerance.is_finite() && tolerance > 0.0) {
+            return Err(SelectionError::BadTolerance(tolerance));
+        }
+        let e = max - min;
+        let size = (e.x * e.y).max(e.y * e.z).max(e.x * e.z).sqrt();
+        Ok(Self(Kind::Moving {
+            min,
+            max,
+            step,
+            frames,
+            size,
+            k: size / (std::f32::consts::PI * tolerance),
+        }))
+    }
+
     /// The records inserted more than `frames` frames before the frame the removal runs in
     /// (`older_than(0)`: every record of an earlier frame). Record ids hold the frame modulo
     /// 2^16, so an age is known modulo 2^16: a cache that removes by age every frame never holds
@@ -142,10 +246,29 @@ impl Selection {
     pub fn selects(&self, record: &Record, accuracy: f32, now: u64) -> bool {
         match self.0 {
             Kind::Touching { min, max, margin } => {
-                // Squared distance from the centre to the box: zero inside it.
-                let nearest = record.position.clamp(min, max);
                 let reach = influence_radius(record, accuracy) + margin;
-                (record.position - nearest).length_squared() <= reach * reach
+                to_box_squared(record.position, min, max) <= reach * reach
+            }
+            Kind::Moving {
+                min,
+                max,
+                step,
+                frames,
+                size,
+                k,
+            } => {
+                let age =
+                    (now.wrapping_sub(record.id().frame()) & FRAME_MASK).min(u64::from(frames));
+                if age == 0 {
+                    // Computed with the object where it is now.
+                    return false;
+                }
+                let shift = step * age as f32;
+                // The object was at `[min, max] - shift` when the record was computed.
+                let (lo, hi) = (min.min(min - shift), max.max(max - shift));
+                let reach =
+                    influence_radius(record, accuracy) + (shift.length().min(size) * k).sqrt();
+                to_box_squared(record.position, lo, hi) <= reach * reach
             }
             Kind::OlderThan { frames } => {
                 let age = now.wrapping_sub(record.id().frame()) & FRAME_MASK;
@@ -161,6 +284,20 @@ impl Selection {
     pub fn may_select_within(&self, lo: Vec3, hi: Vec3) -> bool {
         match self.0 {
             Kind::Touching { min, max, margin } => {
+                !((hi + margin).cmplt(min).any() || (lo - margin).cmpgt(max).any())
+            }
+            Kind::Moving {
+                min,
+                max,
+                step,
+                frames,
+                size,
+                k,
+            } => {
+                // The oldest records' swept box and margin hold every younger record's.
+                let shift = step * f32::from(frames);
+                let (min, max) = (min.min(min - shift), max.max(max - shift));
+                let margin = (shift.length().min(size) * k).sqrt();
                 !((hi + margin).cmplt(min).any() || (lo - margin).cmpgt(max).any())
             }
             Kind::OlderThan { .. } => true,
@@ -251,5 +388,99 @@ mod tests {
         assert!(!s.may_select_within(Vec3::new(1.1, 0.0, 0.0), Vec3::splat(3.0)));
         assert!(!s.may_select_within(Vec3::splat(-3.0), Vec3::new(-0.1, 3.0, 3.0)));
         assert!(Selection::older_than(1).may_select_within(Vec3::splat(9.0), Vec3::splat(10.0)));
+    }
+
+    #[test]
+    fn moving_grows_the_margin_with_the_motion_since_the_record() {
+        // The unit cube (edge 1) moving +0.1 in x a frame for 10 frames, tolerance 0.25: the
+        // margin at age n is sqrt(min(0.1 n, 1) / (pi 0.25)): 0.357 at 1, 0.505 at 2, 1.128 from
+        // 10 on. Records of radius 0.01 (influence 0.0025 at a = 0.25), made in frame 0.
+        let s =
+            Selection::moving(Vec3::ZERO, Vec3::ONE, Vec3::new(0.1, 0.0, 0.0), 10, 0.25).unwrap();
+        let above = |r: f32| at(Vec3::new(0.5, 1.0 + r, 0.5), 0.01, 0);
+        // Made in the frame the removal runs in: never, even inside the box.
+        assert!(!s.selects(&at(Vec3::splat(0.5), 0.01, 7), 0.25, 7));
+        // Beside the box: taken after a frame.
+        assert!(s.selects(&above(0.3), 0.25, 1));
+        // 0.5 above: not after one frame, after two.
+        assert!(!s.selects(&above(0.5), 0.25, 1));
+        assert!(s.selects(&above(0.5), 0.25, 2));
+        // 1.2 above: never, however old (the margin stops at the face's own area).
+        assert!(!s.selects(&above(1.2), 0.25, 10));
+        let long =
+            Selection::moving(Vec3::ZERO, Vec3::ONE, Vec3::new(0.1, 0.0, 0.0), 40, 0.25).unwrap();
+        assert!(!long.selects(&above(1.2), 0.25, 40));
+        assert!(s.selects(&above(1.1), 0.25, 10));
+        // The swept box: 0.9 behind the box (where it came from) is taken at age 5 (the old place
+        // reaches x = -0.5, 0.4 away, within 0.798), 0.85 in front of it is not.
+        let behind = at(Vec3::new(-0.9, 0.5, 0.5), 0.01, 0);
+        assert!(!s.selects(&behind, 0.25, 1));
+        assert!(s.selects(&behind, 0.25, 5));
+        assert!(!s.selects(&at(Vec3::new(1.85, 0.5, 0.5), 0.01, 0), 0.25, 5));
+        // Ages count up to `frames` only: the object stood still before. At 3 frames, 0.5 above
+        // is taken at age 3 or 30 (margin 0.618); at 1 frame, at no age.
+        let three =
+            Selection::moving(Vec3::ZERO, Vec3::ONE, Vec3::new(0.1, 0.0, 0.0), 3, 0.25).unwrap();
+        assert!(three.selects(&above(0.5), 0.25, 30));
+        let one =
+            Selection::moving(Vec3::ZERO, Vec3::ONE, Vec3::new(0.1, 0.0, 0.0), 1, 0.25).unwrap();
+        assert!(!one.selects(&above(0.5), 0.25, 30));
+        assert!(!one.selects(&behind, 0.25, 30));
+        // A looser tolerance shrinks the margin: at 0.5, 0.3 above is kept after one frame (0.252).
+        let loose =
+            Selection::moving(Vec3::ZERO, Vec3::ONE, Vec3::new(0.1, 0.0, 0.0), 10, 0.5).unwrap();
+        assert!(!loose.selects(&above(0.3), 0.25, 1));
+    }
+
+    #[test]
+    fn moving_bounds_its_subtrees_by_its_oldest_records() {
+        let s =
+            Selection::moving(Vec3::ZERO, Vec3::ONE, Vec3::new(0.1, 0.0, 0.0), 10, 0.25).unwrap();
+        // Swept box x in [-1, 1], margin 1.128: a cell from x = -2.1 to -2.2 is out of reach, one
+        // reaching -2.0 is not; in front, 2.1 is out, 2.0 is not.
+        assert!(!s.may_select_within(Vec3::new(-3.0, 0.0, 0.0), Vec3::new(-2.2, 1.0, 1.0)));
+        assert!(s.may_select_within(Vec3::new(-3.0, 0.0, 0.0), Vec3::new(-2.0, 1.0, 1.0)));
+        assert!(!s.may_select_within(Vec3::new(2.2, 0.0, 0.0), Vec3::new(3.0, 1.0, 1.0)));
+        assert!(s.may_select_within(Vec3::new(2.1, 0.0, 0.0), Vec3::new(3.0, 1.0, 1.0)));
+        // Every record the selection takes lies in a cell the bound keeps: a grid of records and
+        // ages, each in the cell of its own sphere.
+        for ix in -30..30 {
+            for iy in -10..25 {
+                for age in 0..14 {
+                    let p = Vec3::new(ix as f32 * 0.1, iy as f32 * 0.1, 0.5);
+                    let r = at(p, 0.4, 0);
+                    let reach = influence_radius(&r, 0.25);
+                    if s.selects(&r, 0.25, age) {
+                        assert!(
+                            s.may_select_within(p - reach, p + reach),
+                            "{p} at age {age}"
+                        );
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn moving_refuses_what_it_cannot_measure() {
+        let z = Vec3::ZERO;
+        assert!(matches!(
+            Selection::moving(Vec3::ONE, z, z, 1, 0.25),
+            Err(SelectionError::InvertedBox { .. })
+        ));
+        let e =
+            Selection::moving(z, Vec3::ONE, Vec3::new(f32::NAN, 0.0, 0.0), 1, 0.25).unwrap_err();
+        assert!(matches!(e, SelectionError::BadStep(_)));
+        assert!(e.to_string().contains("step"), "{e}");
+        for t in [0.0, -0.1, f32::NAN, f32::INFINITY] {
+            let e = Selection::moving(z, Vec3::ONE, z, 1, t).unwrap_err();
+            assert!(matches!(e, SelectionError::BadTolerance(_)), "{t}");
+            assert!(e.to_string().contains("tolerance"), "{e}");
+        }
+        let s = Selection::moving(z, Vec3::ONE, Vec3::new(0.1, 0.0, 0.0), 4, 0.25).unwrap();
+        assert_eq!(
+            s.to_string(),
+            "moving (0.00,0.00,0.00)..(1.00,1.00,1.00) by (0.100,0.000,0.000) a frame for 4 frames, tolerance 0.25"
+        );
     }
 }
