@@ -1117,55 +1117,44 @@ mod tests {
             cores: 2,
             cpu: "test".into(),
         };
-        let e = run(
-            &DynamicConfig {
+        let refused = |config: DynamicConfig, says: &str| {
+            let e = run(&config, &machine, &mut |_| {}).unwrap_err();
+            assert!(e.contains(says), "{e}");
+        };
+        refused(
+            DynamicConfig {
                 scene: "cornell".into(),
                 ..tiny()
             },
-            &machine,
-            &mut |_| {},
-        )
-        .unwrap_err();
-        assert!(e.contains("cornell-moving"), "{e}");
-        let e = run(
-            &DynamicConfig {
+            "cornell-moving",
+        );
+        refused(
+            DynamicConfig {
                 frames: 1,
                 ..tiny()
             },
-            &machine,
-            &mut |_| {},
-        )
-        .unwrap_err();
-        assert!(e.contains("--frames 1"), "{e}");
-        let e = run(
-            &DynamicConfig {
+            "--frames 1",
+        );
+        refused(
+            DynamicConfig {
                 schemes: vec![Scheme::None],
                 ..tiny()
             },
-            &machine,
-            &mut |_| {},
-        )
-        .unwrap_err();
-        assert!(e.contains("none"), "{e}");
-        let e = run(
-            &DynamicConfig {
+            "none",
+        );
+        refused(
+            DynamicConfig {
                 passes: 0,
                 ..tiny()
             },
-            &machine,
-            &mut |_| {},
-        )
-        .unwrap_err();
-        assert!(e.contains("--passes 0"), "{e}");
-        let e = run(
-            &DynamicConfig {
+            "--passes 0",
+        );
+        refused(
+            DynamicConfig {
                 sweep: vec![2.0, -1.0],
                 ..tiny()
             },
-            &machine,
-            &mut |_| {},
-        )
-        .unwrap_err();
-        assert!(e.contains("--sweep -1"), "{e}");
+            "--sweep -1",
+        );
     }
 }

@@ -140,6 +140,24 @@ impl fmt::Display for Selection {
     }
 }
 
+/// For [`Kind::Moving`] and a record `age` frames old: the box the object swept since (it was at
+/// `[min, max] - age step` then) and the margin at its displacement.
+#[inline]
+fn swept(min: Vec3, max: Vec3, step: Vec3, size: f32, k: f32, age: f32) -> (Vec3, Vec3, f32) {
+    let shift = step * age;
+    (
+        min.min(min - shift),
+        max.max(max - shift),
+        (shift.length().min(size) * k).sqrt(),
+    )
+}
+
+/// Whether the cube `[lo, hi]`, grown by `margin`, meets the box `[min, max]`.
+#[inline]
+fn cell_may_reach(lo: Vec3, hi: Vec3, min: Vec3, max: Vec3, margin: f32) -> bool {
+    !((hi + margin).cmplt(min).any() || (lo - margin).cmpgt(max).any())
+}
+
 /// Distance from `p` to the closed box `[min, max]`, squared (zero inside it).
 #[inline]
 fn to_box_squared(p: Vec3, min: Vec3, max: Vec3) -> f32 {
@@ -263,11 +281,8 @@ impl Selection {
                     // Computed with the object where it is now.
                     return false;
                 }
-                let shift = step * age as f32;
-                // The object was at `[min, max] - shift` when the record was computed.
-                let (lo, hi) = (min.min(min - shift), max.max(max - shift));
-                let reach =
-                    influence_radius(record, accuracy) + (shift.length().min(size) * k).sqrt();
+                let (lo, hi, margin) = swept(min, max, step, size, k, age as f32);
+                let reach = influence_radius(record, accuracy) + margin;
                 to_box_squared(record.position, lo, hi) <= reach * reach
             }
             Kind::OlderThan { frames } => {
@@ -283,9 +298,7 @@ impl Selection {
     #[inline]
     pub fn may_select_within(&self, lo: Vec3, hi: Vec3) -> bool {
         match self.0 {
-            Kind::Touching { min, max, margin } => {
-                !((hi + margin).cmplt(min).any() || (lo - margin).cmpgt(max).any())
-            }
+            Kind::Touching { min, max, margin } => cell_may_reach(lo, hi, min, max, margin),
             Kind::Moving {
                 min,
                 max,
@@ -295,10 +308,8 @@ impl Selection {
                 k,
             } => {
                 // The oldest records' swept box and margin hold every younger record's.
-                let shift = step * f32::from(frames);
-                let (min, max) = (min.min(min - shift), max.max(max - shift));
-                let margin = (shift.length().min(size) * k).sqrt();
-                !((hi + margin).cmplt(min).any() || (lo - margin).cmpgt(max).any())
+                let (min, max, margin) = swept(min, max, step, size, k, f32::from(frames));
+                cell_may_reach(lo, hi, min, max, margin)
             }
             Kind::OlderThan { .. } => true,
         }
