@@ -264,6 +264,87 @@ fn removal_counts_are_held_to_what_could_and_must_be_taken() {
     assert!(check(&twice, &spec()).is_err());
 }
 
+/// A removal counts only the records it could have taken: not one whose insert was discarded,
+/// not one its selection does not take; and a removal that does not take a record does not
+/// excuse a lookup that misses it.
+#[test]
+fn only_what_a_removal_selects_among_possible_records_counts_or_excuses() {
+    let a = id(1, 0);
+    let discarded = HistoryBuilder::new()
+        .call(
+            1,
+            CacheOp::insert(a, rec_a()),
+            CacheRet::Inserted(Inserted::Discarded(a)),
+        )
+        .call(0, at_p(), CacheRet::Removed(1))
+        .build();
+    assert_eq!(
+        check_set_consistency(&discarded, &world()),
+        Err(SetViolation::OverCounted {
+            removal: 1,
+            count: 1,
+            at_most: 0
+        })
+    );
+    let far = Record::new(Vec3::splat(8.0), Vec3::Z, Vec3::ONE, 0.3);
+    let elsewhere = HistoryBuilder::new()
+        .call(1, CacheOp::insert(a, far), stored(a))
+        .call(0, at_p(), CacheRet::Removed(1))
+        .build();
+    assert_eq!(
+        check_set_consistency(&elsewhere, &world()),
+        Err(SetViolation::OverCounted {
+            removal: 1,
+            count: 1,
+            at_most: 0
+        })
+    );
+    // A removal far from A (its influence, 4, stops short of the box) then a lookup at P that
+    // misses A: lost, whatever the removal did elsewhere.
+    let away = CacheOp::Remove {
+        selection: Selection::touching(Vec3::splat(9.0), Vec3::splat(10.0)).unwrap(),
+        now: 0,
+    };
+    let lost = HistoryBuilder::new()
+        .call(1, CacheOp::insert(a, rec_a()), stored(a))
+        .call(0, away, CacheRet::Removed(0))
+        .call(2, lookup(), found(vec![]))
+        .build();
+    assert_eq!(
+        check_set_consistency(&lost, &world()),
+        Err(SetViolation::Lost {
+            lookup: 2,
+            insert: 0,
+            id: a
+        })
+    );
+    assert!(check(&lost, &spec()).is_err());
+}
+
+/// A pending insert (its id unknown) whose record a removal took: the specification takes the
+/// unnamed record too and counts it, so a later lookup that misses it is linearizable and one
+/// that names it is not.
+#[test]
+fn a_removal_takes_the_record_of_a_pending_insert() {
+    let h = |count, after| {
+        HistoryBuilder::new()
+            .invoke(1, CacheOp::insert_unknown(WorkerId::new(1), rec_a()))
+            .call(0, at_p(), CacheRet::Removed(count))
+            .call(2, lookup(), found(after))
+            .build()
+    };
+    let taken = h(1, vec![]);
+    assert!(check(&taken, &spec()).is_ok(), "taken, then missed");
+    assert_eq!(check_set_consistency(&taken, &world()), Ok(()));
+    // Counted twice over: the spec has one record to take.
+    assert!(check(&h(2, vec![]), &spec()).is_err());
+    // Taken, then found again under the insert's worker's id.
+    assert!(check(&h(1, vec![id(1, 7)]), &spec()).is_err());
+    // Not taken (the insert took effect later, or not at all): a miss, or a find.
+    assert!(check(&h(0, vec![]), &spec()).is_ok());
+    assert!(check(&h(0, vec![id(1, 7)]), &spec()).is_ok());
+}
+
 /// WF's removal walks the tree as a lookup does, so it is not atomic: it can take A in the
 /// root's list, then (after B is inserted deep and a lookup has seen B without A) take B below.
 /// Its count says it took both, so any linearization puts it after B's insert; the lookup saw A

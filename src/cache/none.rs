@@ -132,4 +132,20 @@ mod tests {
         assert_eq!(cache.stats().records, 0);
         assert!(cache.snapshot().is_empty());
     }
+
+    #[test]
+    fn the_reference_has_nothing_to_remove() {
+        let config = CacheConfig::new(Vec3::ZERO, Vec3::splat(4.0), 0.3).unwrap();
+        let mut cache = NoCache::new(config);
+        let everything = Selection::touching(Vec3::ZERO, Vec3::splat(4.0)).unwrap();
+        let (removed, report) = run_frame(&mut cache, 1, |h, _| {
+            h.insert(Record::new(Vec3::splat(2.0), Vec3::Z, Vec3::ONE, 1.0))
+                .unwrap();
+            h.remove(&everything)
+        });
+        assert_eq!(removed, [0]);
+        assert_eq!(report.workers.removed, 0);
+        assert_eq!(cache.remove(&everything), 0);
+        assert_eq!(cache.stats().totals.removed, 0);
+    }
 }

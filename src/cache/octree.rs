@@ -353,4 +353,40 @@ mod tests {
         assert!(!g.loose_contains(&small, Vec3::new(0.51, 0.0, 0.0)));
         assert!(!g.loose_contains(&small, Vec3::new(1.0, 0.0, 0.0)));
     }
+
+    /// `loose_bounds` is the cube `loose_contains` accepts, slack included: a removal that skips
+    /// the nodes whose bounds miss its selection skips no node a record it takes may be in.
+    #[test]
+    fn loose_bounds_are_the_cube_loose_contains_accepts() {
+        let g = geometry(); // slack 8e-5
+        let cells = [
+            g.root.child(Octant(0)).child(Octant(7)), // half 2
+            Cell {
+                center: Vec3::new(0.5, -0.25, 0.0),
+                half: 0.25,
+            },
+        ];
+        for cell in cells {
+            let (lo, hi) = g.loose_bounds(&cell);
+            for axis in [Vec3::X, Vec3::Y, Vec3::Z] {
+                for side in [1.0, -1.0] {
+                    for d in [
+                        0.0,
+                        2.0 * cell.half,
+                        2.0 * cell.half + 5e-5,
+                        2.0 * cell.half + 1e-3,
+                    ] {
+                        let p = cell.center + axis * side * d;
+                        let inside = p.cmpge(lo).all() && p.cmple(hi).all();
+                        assert_eq!(
+                            inside,
+                            g.loose_contains(&cell, p),
+                            "half {}, {axis} {side} at {d}: bounds {lo}..{hi}",
+                            cell.half
+                        );
+                    }
+                }
+            }
+        }
+    }
 }

@@ -381,6 +381,9 @@ mod tests {
         let s = Selection::near(Vec3::ZERO, Vec3::ONE, 0.5).unwrap();
         assert!(s.may_select_within(Vec3::new(1.4, 0.0, 0.0), Vec3::splat(3.0)));
         assert!(!s.may_select_within(Vec3::new(1.6, 0.0, 0.0), Vec3::splat(3.0)));
+        // And on the low side of the box.
+        assert!(s.may_select_within(Vec3::splat(-3.0), Vec3::new(-0.4, 3.0, 3.0)));
+        assert!(!s.may_select_within(Vec3::splat(-3.0), Vec3::new(-0.6, 3.0, 3.0)));
         let e = Selection::near(Vec3::ZERO, Vec3::ONE, -1.0).unwrap_err();
         assert_eq!(e, SelectionError::BadMargin(-1.0));
         assert!(e.to_string().contains("margin"), "{e}");
@@ -399,6 +402,10 @@ mod tests {
         assert!(!s.may_select_within(Vec3::new(1.1, 0.0, 0.0), Vec3::splat(3.0)));
         assert!(!s.may_select_within(Vec3::splat(-3.0), Vec3::new(-0.1, 3.0, 3.0)));
         assert!(Selection::older_than(1).may_select_within(Vec3::splat(9.0), Vec3::splat(10.0)));
+        // Without a margin the box prints bare; a point box prints as its point.
+        assert_eq!(s.to_string(), "touching (0.00,0.00,0.00)..(1.00,1.00,1.00)");
+        let point = Selection::touching(Vec3::ONE, Vec3::ONE).unwrap();
+        assert_eq!(point.to_string(), "touching (1.00,1.00,1.00)");
     }
 
     #[test]
