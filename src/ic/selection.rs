@@ -451,6 +451,35 @@ mod tests {
     }
 
     #[test]
+    fn moving_measures_the_largest_face_of_a_box_anywhere() {
+        // Boxes off the origin, each with a different largest face (area 8, edge sqrt 8 = 2.83;
+        // the other faces 4 and 2), moved 10 in x in one frame: once the motion exceeds the edge
+        // the margin is `sqrt(s s / (pi tolerance))`, `s` itself at tolerance 1/pi. A record of
+        // negligible sphere 2.5 above the box is taken (a margin from a smaller face, 2, would
+        // keep it), one 3.2 above is not (a box measured from the origin, not its own corner,
+        // would be larger).
+        let tol = std::f32::consts::FRAC_1_PI;
+        let step = Vec3::new(10.0, 0.0, 0.0);
+        for dims in [
+            Vec3::new(4.0, 2.0, 1.0),
+            Vec3::new(1.0, 4.0, 2.0),
+            Vec3::new(4.0, 1.0, 2.0),
+        ] {
+            let (min, max) = (Vec3::ONE, Vec3::ONE + dims);
+            let s = Selection::moving(min, max, step, 1, tol).unwrap();
+            let above = |h: f32| at(Vec3::new(max.x - 0.5, max.y + h, max.z - 0.5), 0.01, 0);
+            assert!(s.selects(&above(2.5), 0.25, 1), "{dims}");
+            assert!(!s.selects(&above(3.2), 0.25, 1), "{dims}");
+        }
+        // The record's own sphere adds to the margin: influence 2 (radius 4 at a = 0.5) reaches
+        // from 4.3 above the box (2.83 + 2 > 4.3), not from 5.
+        let (min, max) = (Vec3::ONE, Vec3::new(5.0, 3.0, 2.0));
+        let s = Selection::moving(min, max, step, 1, tol).unwrap();
+        assert!(s.selects(&at(Vec3::new(3.0, 3.0 + 4.3, 1.5), 4.0, 0), 0.5, 1));
+        assert!(!s.selects(&at(Vec3::new(3.0, 3.0 + 5.0, 1.5), 4.0, 0), 0.5, 1));
+    }
+
+    #[test]
     fn moving_bounds_its_subtrees_by_its_oldest_records() {
         let s =
             Selection::moving(Vec3::ZERO, Vec3::ONE, Vec3::new(0.1, 0.0, 0.0), 10, 0.25).unwrap();
