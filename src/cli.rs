@@ -79,7 +79,9 @@ pub fn main() -> ExitCode {
             return match wfic::render::cli::run_render(args) {
                 Ok(()) => ExitCode::SUCCESS,
                 Err(e) => {
-                    eprintln!("error: {e}");
+                    if !matches!(e, wfic::render::cli::RenderError::Reported) {
+                        eprintln!("error: {e}");
+                    }
                     ExitCode::from(u8::try_from(e.exit_code()).unwrap_or(1))
                 }
             }

@@ -118,6 +118,25 @@ pub struct RenderArgs {
     /// No progress bar.
     #[arg(long)]
     pub quiet: bool,
+    /// Render over MPI: run under `mpirun -np R`; the ranks split the tiles and exchange new
+    /// records; rank 0 writes the outputs (needs the `mpi` feature; scheme `wf`).
+    #[arg(long)]
+    pub distributed: bool,
+    /// With --distributed: a rank starts an exchange round once it has this many new records.
+    #[arg(long, default_value_t = 256, requires = "distributed")]
+    pub batch_records: usize,
+    /// With --distributed: ... or this many milliseconds after its previous round.
+    #[arg(long, default_value_t = 20, requires = "distributed")]
+    pub batch_ms: u64,
+    /// With --distributed: the ranks' caches share nothing (the baseline).
+    #[arg(long, requires = "distributed")]
+    pub no_share: bool,
+    /// With --distributed, for the failure tests: this rank fails after its first tile.
+    #[arg(long, hide = true, requires = "distributed")]
+    pub fail_rank: Option<u32>,
+    /// With --fail-rank: the rank leaves the process (status 3) instead of panicking.
+    #[arg(long, hide = true, requires = "fail_rank")]
+    pub fail_exit: bool,
 }
 
 /// What went wrong in `wfic render`.
@@ -127,13 +146,17 @@ pub enum RenderError {
     Usage(String),
     /// A failure while writing output. Exit code 1.
     Io(String),
+    /// Bad input this process has printed already (a rank of an MPI job, which prints before it
+    /// waits for the other ranks, so that no rank is killed before its message is out). Exit
+    /// code 2.
+    Reported,
 }
 
 impl RenderError {
     /// The process exit code for this error.
     pub fn exit_code(&self) -> i32 {
         match self {
-            Self::Usage(_) => 2,
+            Self::Usage(_) | Self::Reported => 2,
             Self::Io(_) => 1,
         }
     }
@@ -143,6 +166,7 @@ impl fmt::Display for RenderError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             Self::Usage(m) | Self::Io(m) => f.write_str(m),
+            Self::Reported => f.write_str("(printed above)"),
         }
     }
 }
@@ -227,6 +251,9 @@ pub fn settings_from(args: &RenderArgs) -> Result<RenderSettings, RenderError> {
 
 /// Runs `wfic render`.
 pub fn run_render(args: RenderArgs) -> Result<(), RenderError> {
+    if args.distributed {
+        return run_distributed(args);
+    }
     let settings = settings_from(&args)?;
     let scene = load_scene(&args)?;
     let config = settings
@@ -309,6 +336,176 @@ pub fn run_render(args: RenderArgs) -> Result<(), RenderError> {
         args.out.display(),
         pfm.display(),
         hdr.display(),
+        overlay.display(),
+    );
+    Ok(())
+}
+
+#[cfg(not(feature = "mpi"))]
+fn run_distributed(_: RenderArgs) -> Result<(), RenderError> {
+    Err(RenderError::Usage(
+        "--distributed needs wfic built with the `mpi` feature: install OpenMPI \
+         (apt-get install libopenmpi-dev openmpi-bin libclang-dev), then \
+         cargo build --release --features mpi, and run under mpirun -np R"
+            .to_owned(),
+    ))
+}
+
+/// `wfic render --distributed`, on every rank of the job.
+#[cfg(feature = "mpi")]
+fn run_distributed(args: RenderArgs) -> Result<(), RenderError> {
+    use super::distributed::{render_distributed, Exchange};
+    use mpi::traits::{Communicator, CommunicatorCollectives};
+    let Some((universe, threading)) = mpi::initialize_with_threading(mpi::Threading::Multiple)
+    else {
+        return Err(RenderError::Usage("MPI was initialised already".to_owned()));
+    };
+    let world = universe.world();
+    let (rank, size) = (world.rank(), world.size());
+    if threading != mpi::Threading::Multiple {
+        eprintln!(
+            "rank {rank}: warning: this MPI gives {threading:?} threads, not Multiple; a panic on \
+             a worker thread still aborts the job, through a call MPI does not promise to allow"
+        );
+    }
+    // A panic on any thread ends the whole job at once: otherwise the other ranks wait in the
+    // next collective for a rank that will never reach it.
+    let previous = std::panic::take_hook();
+    std::panic::set_hook(Box::new(move |info| {
+        previous(info);
+        eprintln!("error: rank {rank} of {size} panicked; aborting the MPI job");
+        mpi::topology::SimpleCommunicator::world().abort(101);
+    }));
+    let setup = || -> Result<_, RenderError> {
+        if args.scheme != Scheme::Wf {
+            return Err(RenderError::Usage(format!(
+                "--distributed renders with the wait-free cache on every rank: use --scheme wf, \
+                 not {}",
+                args.scheme
+            )));
+        }
+        if args.batch_records == 0 {
+            return Err(RenderError::Usage(
+                "--batch-records must be at least 1".to_owned(),
+            ));
+        }
+        let settings = settings_from(&args)?;
+        let scene = load_scene(&args)?;
+        let config = settings
+            .cache_config(&scene)
+            .map_err(|e| RenderError::Usage(e.to_string()))?;
+        Ok((settings, scene, config))
+    };
+    // Every rank checks its own arguments; the ranks then agree on whether all of them can go on,
+    // so a bad argument on one rank stops every rank with a message instead of a hang.
+    let ready = setup();
+    let ok = u8::from(ready.is_ok());
+    let mut oks = vec![0u8; size as usize];
+    world.all_gather_into(&ok, &mut oks[..]);
+    // A refusal is printed by every rank, which then waits for the others to have printed
+    // theirs: `mpirun` kills the job when the first rank exits with an error, and a message not
+    // written by then is lost.
+    let refuse = |message: String| {
+        eprintln!("error: {message}");
+        world.barrier();
+        RenderError::Reported
+    };
+    let (settings, scene, config) = match ready {
+        Err(e) => return Err(refuse(format!("rank {rank}: {e}"))),
+        Ok(_) if oks.contains(&0) => {
+            let bad: Vec<String> = (0..size)
+                .filter(|&r| oks[r as usize] == 0)
+                .map(|r| r.to_string())
+                .collect();
+            return Err(refuse(format!(
+                "rank {rank}: rank(s) {} refused their arguments (see their messages)",
+                bad.join(", ")
+            )));
+        }
+        Ok(ready) => ready,
+    };
+    let exchange = Exchange {
+        batch_records: args.batch_records,
+        batch_ms: args.batch_ms,
+        share: !args.no_share,
+    };
+    let camera = scene.camera();
+    let fail = args.fail_rank.map(|r| (r, args.fail_exit));
+    let frame = render_distributed(
+        &world,
+        &scene,
+        &camera,
+        &settings,
+        config,
+        args.threads,
+        &exchange,
+        fail,
+    )
+    .map_err(|e| refuse(e.to_string()))?;
+    let Some(frame) = frame else {
+        return Ok(());
+    };
+    let io = |path: &Path, e: std::io::Error| RenderError::Io(format!("{}: {e}", path.display()));
+    let exposure = frame.image.auto_exposure();
+    frame
+        .image
+        .write_png(&args.out, exposure)
+        .map_err(|e| io(&args.out, e))?;
+    let pfm = args
+        .pfm
+        .clone()
+        .unwrap_or_else(|| args.out.with_extension("pfm"));
+    frame.image.write_pfm(&pfm).map_err(|e| io(&pfm, e))?;
+    let overlay = args
+        .records
+        .clone()
+        .unwrap_or_else(|| with_suffix(&args.out, "-records.png"));
+    let view = camera.view(settings.width, settings.height);
+    let points: Vec<_> = frame
+        .records
+        .iter()
+        .filter_map(|(rank, r)| view.project(r.position).map(|p| (p, worker_colour(*rank))))
+        .collect();
+    frame
+        .image
+        .write_overlay_png(&overlay, exposure, &points)
+        .map_err(|e| io(&overlay, e))?;
+    let computed: u64 = frame.ranks.iter().map(|r| r.records_computed).sum();
+    if let Some(path) = &args.stats {
+        let json = serde_json::json!({
+            "scene": scene.name(),
+            "triangles": scene.triangle_count(),
+            "width": settings.width,
+            "height": settings.height,
+            "ranks": frame.ranks,
+            "records_computed": computed,
+            "duplicates": frame.duplicates,
+            "seconds": frame.seconds,
+            "batch_records": exchange.batch_records,
+            "batch_ms": exchange.batch_ms,
+            "share": exchange.share,
+        });
+        let text = serde_json::to_string_pretty(&json).expect("statistics serialise") + "\n";
+        std::fs::write(path, text).map_err(|e| io(path, e))?;
+    }
+    let sent: u64 = frame.ranks.iter().map(|r| r.bytes_sent).sum();
+    println!(
+        "{} distributed over {} ranks ({}): {:.3} s, {} records computed ({} duplicates), {} bytes \
+         exchanged; wrote {}, {}, {}",
+        scene.name(),
+        size,
+        frame
+            .ranks
+            .iter()
+            .map(|r| format!("rank {}: {} threads, {} tiles, {} records", r.rank, r.threads, r.tiles, r.records_computed))
+            .collect::<Vec<_>>()
+            .join("; "),
+        frame.seconds,
+        computed,
+        frame.duplicates,
+        sent,
+        args.out.display(),
+        pfm.display(),
         overlay.display(),
     );
     Ok(())

@@ -39,6 +39,8 @@
 
 pub mod camera;
 pub mod cli;
+#[cfg(feature = "mpi")]
+pub mod distributed;
 pub mod film;
 pub mod integrator;
 pub mod lights;

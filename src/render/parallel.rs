@@ -47,16 +47,16 @@ pub struct FrameResult {
 }
 
 /// The frame's tiles: square blocks of `tile_size` pixels, row by row.
-struct Tiles {
+pub(super) struct Tiles {
     size: u32,
     width: u32,
     height: u32,
     across: u32,
-    count: usize,
+    pub(super) count: usize,
 }
 
 impl Tiles {
-    fn new(settings: &RenderSettings) -> Self {
+    pub(super) fn new(settings: &RenderSettings) -> Self {
         let size = settings.tile_size.max(1);
         let across = settings.width.div_ceil(size);
         Self {
@@ -69,7 +69,7 @@ impl Tiles {
     }
 
     /// The pixel rectangle `(x0, y0, x1, y1)` of tile `tile`.
-    fn rect(&self, tile: usize) -> (u32, u32, u32, u32) {
+    pub(super) fn rect(&self, tile: usize) -> (u32, u32, u32, u32) {
         let (tx, ty) = (tile as u32 % self.across, tile as u32 / self.across);
         let (x0, y0) = (tx * self.size, ty * self.size);
         (
