@@ -312,3 +312,67 @@ fn a_rank_that_exits_ends_the_job_within_seconds() {
     );
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+#[test]
+fn reproduce_distributed_measures_every_layout() {
+    let dir = out_dir("reproduce");
+    let _one = JOBS.lock().unwrap_or_else(|e| e.into_inner());
+    let out = Command::new(BIN)
+        .args([
+            "reproduce",
+            "distributed",
+            "--quick",
+            "--no-radiance",
+            "--quiet",
+            "--width",
+            "48",
+            "--rays-per-record",
+            "64",
+            "--batches",
+            "8,4096",
+        ])
+        .arg("--out-dir")
+        .arg(&dir)
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    for f in ["distributed.md", "distributed.png", "distributed.svg"] {
+        assert!(dir.join(f).is_file(), "{f} missing");
+    }
+    assert!(!dir.join("work-distributed").exists(), "work files left");
+    let csv = std::fs::read_to_string(dir.join("distributed.csv")).unwrap();
+    let rows: Vec<Vec<&str>> = csv
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').collect())
+        .collect();
+    let layouts: Vec<(&str, &str, &str)> = rows.iter().map(|r| (r[0], r[2], r[4])).collect();
+    assert_eq!(
+        layouts,
+        [
+            ("layout", "1", "true"),
+            ("layout", "2", "true"),
+            ("layout", "2", "false"),
+            ("layout", "4", "true"),
+            ("sweep", "2", "true"),
+            ("sweep", "2", "true"),
+        ],
+        "{csv}"
+    );
+    for r in &rows {
+        let records: u64 = r[11].parse().unwrap();
+        let per: Vec<u64> = r[12].split('/').map(|x| x.parse().unwrap()).collect();
+        let ranks: usize = r[2].parse().unwrap();
+        assert_eq!(per.len(), ranks, "{csv}");
+        assert_eq!(per.iter().sum::<u64>(), records, "{csv}");
+        let bytes: u64 = r[14].parse().unwrap();
+        // Shared ranks move bytes, the others none; every error is small.
+        assert_eq!(bytes > 0, ranks > 1 && r[4] == "true", "{csv}");
+        let err: f64 = r[19].parse().unwrap();
+        assert!(err > 0.0 && err < 0.1, "{csv}");
+    }
+    // The small batch needs more rounds than the large one.
+    let rounds = |r: &Vec<&str>| r[15].parse::<u64>().unwrap();
+    assert!(rounds(&rows[4]) > rounds(&rows[5]), "{csv}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}

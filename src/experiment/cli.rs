@@ -1,6 +1,7 @@
 //! `wfic reproduce table1` and `wfic reproduce animation`: arguments, progress bar, output.
 
 use super::animation::{self, AnimationConfig};
+use super::distributed::{self, DistributedConfig};
 use super::dynamic::{self, DynamicConfig};
 use super::table1::{self, Table1Config};
 use super::Machine;
@@ -30,6 +31,59 @@ pub enum ReproduceCommand {
     /// touch, with a fresh cache, and with stale records, each against the frame's brute-force
     /// image. Writes dynamic.md, dynamic.csv, dynamic.png, dynamic.svg and dynamic-strip.png.
     Dynamic(DynamicArgs),
+    /// One frame over MPI ranks (issue 14; wfic built with `--features mpi`, OpenMPI
+    /// installed): 1 rank x 2 threads, 2 ranks x 1 thread sharing records and sharing nothing,
+    /// 4 ranks (oversubscribed), a sweep of the batch size, and Radiance's `rtrace -n 1` and `-n
+    /// 2` on one ambient file. Writes distributed.md, distributed.csv, distributed.png and
+    /// distributed.svg.
+    Distributed(DistributedArgs),
+}
+
+/// Arguments of `wfic reproduce distributed`.
+#[derive(Clone, Debug, clap::Args)]
+pub struct DistributedArgs {
+    /// The scene.
+    #[arg(long, default_value = distributed::SCENE)]
+    pub scene: String,
+    /// A smoke run: 96 x 96, 128 rays a record, one run a job, three batch sizes.
+    #[arg(long)]
+    pub quick: bool,
+    /// Image width (default 256, quick 96).
+    #[arg(long)]
+    pub width: Option<u32>,
+    /// Image height (default: as the width).
+    #[arg(long)]
+    pub height: Option<u32>,
+    /// Hemisphere rays per record (default 512, quick 128).
+    #[arg(long)]
+    pub rays_per_record: Option<u32>,
+    /// Ward's accuracy `a`, for wfic and Radiance (`-aa`).
+    #[arg(long, default_value_t = 0.15)]
+    pub accuracy: f32,
+    /// Light samples per primary hit.
+    #[arg(long, default_value_t = 8)]
+    pub light_samples: u32,
+    /// Runs per job, each job reporting its median (default 3, quick 1).
+    #[arg(long)]
+    pub runs: Option<usize>,
+    /// The batch sizes of the sweep (default 4,16,64,256,1024,4096; quick 16,256,4096).
+    #[arg(long, value_delimiter = ',')]
+    pub batches: Vec<usize>,
+    /// The main jobs' batch size.
+    #[arg(long, default_value_t = 256)]
+    pub batch_records: usize,
+    /// The main jobs' batch timer (ms).
+    #[arg(long, default_value_t = 20)]
+    pub batch_ms: u64,
+    /// Skip Radiance (otherwise `rtrace` must be found: `pip install pyradiance`).
+    #[arg(long)]
+    pub no_radiance: bool,
+    /// Output directory.
+    #[arg(long)]
+    pub out_dir: PathBuf,
+    /// No progress bar.
+    #[arg(long)]
+    pub quiet: bool,
 }
 
 /// Arguments of `wfic reproduce dynamic`.
@@ -264,6 +318,67 @@ pub fn run(command: ReproduceCommand) -> Result<(), String> {
                 "wrote {}/table1.md, table1.csv, figure1.png, figure1.svg ({:.0} s)",
                 a.out_dir.display(),
                 t.seconds
+            );
+            Ok(())
+        }
+        ReproduceCommand::Distributed(a) => {
+            let (w, h) = size(a.width.unwrap_or(if a.quick { 96 } else { 256 }), a.height)?;
+            let rays = a.rays_per_record.unwrap_or(if a.quick { 128 } else { 512 });
+            if rays == 0 || a.light_samples == 0 {
+                return Err("--rays-per-record and --light-samples must be at least 1".to_owned());
+            }
+            if !(a.accuracy.is_finite() && a.accuracy > 0.0) {
+                return Err(format!("--accuracy {} is not a number above 0", a.accuracy));
+            }
+            let settings = RenderSettings::new(w, h)
+                .rays_per_record(rays)
+                .light_samples(a.light_samples)
+                .accuracy(a.accuracy)
+                .quiet(true);
+            let config = DistributedConfig {
+                scene: a.scene.clone(),
+                settings,
+                runs: a.runs.unwrap_or(if a.quick { 1 } else { 3 }),
+                batches: if !a.batches.is_empty() {
+                    a.batches.clone()
+                } else if a.quick {
+                    vec![16, 256, 4096]
+                } else {
+                    vec![4, 16, 64, 256, 1024, 4096]
+                },
+                batch_ms: a.batch_ms,
+                batch_records: a.batch_records,
+                stride: 2,
+                radiance_resolution: 128,
+                radiance: !a.no_radiance,
+            };
+            println!("{}", machine.banner(&[1, 2, 4]));
+            let jobs = config.runs * (4 + config.batches.len()) + 2 + usize::from(config.radiance);
+            let pb = bar(jobs, a.quiet);
+            let start = std::time::Instant::now();
+            let mut first = true;
+            let d = distributed::run(&config, &machine, &a.out_dir, &mut |label| {
+                if !first {
+                    pb.inc(1);
+                }
+                first = false;
+                if a.quiet || !std::io::stderr().is_terminal() {
+                    if !a.quiet {
+                        eprintln!("{label}");
+                    }
+                } else {
+                    pb.set_message(label.to_owned());
+                }
+            })?;
+            pb.finish_and_clear();
+            d.write(&a.out_dir, &command_line())?;
+            for (claim, ok, detail) in d.checks() {
+                println!("{:<4} {claim}: {detail}", if ok { "yes" } else { "NO" });
+            }
+            println!(
+                "wrote {}/distributed.md, distributed.csv, distributed.png, distributed.svg ({:.0} s)",
+                a.out_dir.display(),
+                start.elapsed().as_secs_f64()
             );
             Ok(())
         }

@@ -9,6 +9,7 @@
 
 pub mod animation;
 pub mod cli;
+pub mod distributed;
 pub mod dynamic;
 pub mod paper;
 pub mod plot;

@@ -310,7 +310,7 @@ fn read_floats(path: &Path, (w, h): (u32, u32), stride: u32) -> Result<Image, St
 
 /// Which pixels see a non-emitting surface and lie on the reference grid (the pixels the
 /// errors are measured on).
-fn surface_mask(scene: &Scene, settings: &RenderSettings, stride: u32) -> Vec<bool> {
+pub(crate) fn surface_mask(scene: &Scene, settings: &RenderSettings, stride: u32) -> Vec<bool> {
     let view = scene.camera().view(settings.width, settings.height);
     let mut mask = Vec::with_capacity((settings.width * settings.height) as usize);
     for y in 0..settings.height {
@@ -1239,4 +1239,107 @@ mod tests {
         let all = image_error(&a, &b, &[true, true]);
         assert!(all.rel_rmse > 1.0, "{all:?}");
     }
+}
+
+/// One run of Radiance's own multi-process sharing: `rtrace -n P` processes sharing one ambient
+/// file (Radiance's answer to distributing the cache, over NFS and file locks on a cluster).
+#[derive(Clone, Debug, PartialEq)]
+pub struct SharedAmbientRun {
+    /// `rtrace` processes.
+    pub processes: usize,
+    /// Wall-clock seconds of the `rtrace` run.
+    pub seconds: f64,
+    /// Records in the ambient file at the end.
+    pub records: usize,
+    /// Bytes of the ambient file at the end (every record written once, read by the others).
+    pub ambient_bytes: u64,
+    /// Error against Radiance's brute-force image (`-aa 0`, 4x the rays) on the grid.
+    pub error: ImageError,
+}
+
+/// Radiance's side of `wfic reproduce distributed`: the scene exported as [`compare_scene`]
+/// does, one brute-force reference (`-aa 0 -ad 4N`, at one pixel in `stride` x `stride`, 2
+/// processes), and for each count in `processes` one cached run (`-ab 1 -ad N -aa a -ar res`)
+/// with that many `rtrace` processes sharing a fresh ambient file, each measured against the
+/// reference over the non-emitter pixels of the grid. Returns the runs and the reference's
+/// seconds. Work files go to `work`.
+///
+/// # Errors
+/// A Radiance tool that fails, or a file that cannot be written or read.
+pub fn shared_ambient(
+    bin: &RadianceBin,
+    scene: &Scene,
+    settings: &RenderSettings,
+    resolution: u32,
+    stride: u32,
+    processes: &[usize],
+    work: &Path,
+) -> Result<(Vec<SharedAmbientRun>, f64), String> {
+    std::fs::create_dir_all(work).map_err(|e| format!("{}: {e}", work.display()))?;
+    let (n, a) = (settings.rays_per_record, settings.accuracy);
+    let size = (settings.width, settings.height);
+    let mask = surface_mask(scene, settings, stride);
+    let rad = work.join("scene.rad");
+    write_rad(scene, &rad)?;
+    let oct = work.join("scene.oct");
+    let mut oconv = bin.command("oconv");
+    oconv.arg("-f").arg(&rad);
+    run_timed(oconv, None, &oct, "oconv")?;
+    let rays = work.join("rays.f32");
+    write_rays(scene, settings, 1, &rays)?;
+    let grid_rays = work.join("grid-rays.f32");
+    write_rays(scene, settings, stride, &grid_rays)?;
+    let rtrace = |args: &[String], workers: usize, amb: Option<&Path>| {
+        let mut c = bin.command("rtrace");
+        c.args(["-h-", "-fff", "-ab", "1", "-av", "0", "0", "0", "-aw", "0"]);
+        c.args(["-dj", "0", "-lw", "1e-7"]);
+        c.args(args);
+        c.args(["-n", &workers.to_string()]);
+        if let Some(amb) = amb {
+            c.arg("-af").arg(amb);
+        }
+        c.arg(&oct);
+        c
+    };
+    let ref_out = work.join("ref.f32");
+    let ref_args = ["-aa", "0", "-ad", &(4 * n).to_string(), "-as", "0"].map(str::to_owned);
+    let ref_seconds = run_timed(
+        rtrace(&ref_args, 2, None),
+        Some(&grid_rays),
+        &ref_out,
+        "rtrace (reference)",
+    )?;
+    let reference = read_floats(&ref_out, size, stride)?;
+    let cache_args = [
+        "-ad",
+        &n.to_string(),
+        "-as",
+        "0",
+        "-aa",
+        &a.to_string(),
+        "-ar",
+        &resolution.to_string(),
+    ]
+    .map(str::to_owned);
+    let mut runs = Vec::new();
+    for &p in processes {
+        let amb = work.join(format!("shared-{p}.amb"));
+        std::fs::remove_file(&amb).ok();
+        let out = work.join(format!("shared-{p}.f32"));
+        let seconds = run_timed(
+            rtrace(&cache_args, p, Some(&amb)),
+            Some(&rays),
+            &out,
+            "rtrace",
+        )?;
+        let img = read_floats(&out, size, 1)?;
+        runs.push(SharedAmbientRun {
+            processes: p,
+            seconds,
+            records: ambient_records(bin, &amb)?,
+            ambient_bytes: std::fs::metadata(&amb).map_or(0, |m| m.len()),
+            error: image_error(&img, &reference, &mask),
+        });
+    }
+    Ok((runs, ref_seconds))
 }

@@ -247,6 +247,11 @@ pub struct RankStats {
     pub bytes_received: u64,
     /// Exchange rounds.
     pub rounds: u64,
+    /// Seconds its MPI thread spent in the rounds' two collectives (the state's allgather and
+    /// the records' allgatherv), waiting for the slowest rank included.
+    pub collective_seconds: f64,
+    /// Seconds its MPI thread spent inserting the others' records into its cache.
+    pub insert_seconds: f64,
     /// Digest of the records it sent, in order ([`WireRecord::digest`]).
     pub sent_digest: u64,
     /// Per other rank (by rank; its own entry 0): the digest of the records it received from
@@ -513,6 +518,7 @@ pub fn render_distributed(
                 outgoing.len() as u64,
             ];
             let mut states = vec![0u64; 4 * size];
+            let entered = Instant::now();
             world.all_gather_into(&state[..], &mut states[..]);
             let counts: Vec<Count> = (0..size).map(|r| states[4 * r + 3] as Count).collect();
             let total: usize = counts.iter().map(|&c| c as usize).sum();
@@ -531,6 +537,8 @@ pub fn render_distributed(
                         PartitionMut::new(&mut incoming[..], &counts[..], &displs[..]);
                     world.all_gather_varcount_into(&outgoing[..], &mut partition);
                 }
+                stats.collective_seconds += entered.elapsed().as_secs_f64();
+                let inserting = Instant::now();
                 let bytes = std::mem::size_of::<WireRecord>() as u64;
                 stats.records_sent += outgoing.len() as u64;
                 stats.bytes_sent += bytes * outgoing.len() as u64 * (size as u64 - 1);
@@ -546,6 +554,9 @@ pub fn render_distributed(
                         stats.records_inserted += 1;
                     }
                 }
+                stats.insert_seconds += inserting.elapsed().as_secs_f64();
+            } else {
+                stats.collective_seconds += entered.elapsed().as_secs_f64();
             }
             stats.rounds += 1;
             // Every rank sees the same states, so every rank advances the plan the same way.
