@@ -310,6 +310,14 @@ fn a_rank_that_exits_ends_the_job_within_seconds() {
         stderr.contains("rank 1: exiting as asked by --fail-rank"),
         "{stderr}"
     );
+    // mpirun's own report names the rank that left (process [[job,step],rank]), as it would for
+    // a rank that dies without a word (a signal, the OOM killer).
+    let named = stderr
+        .lines()
+        .find_map(|l| l.trim().strip_prefix("Process name: [["))
+        .unwrap_or_else(|| panic!("mpirun named no process: {stderr}"));
+    assert!(named.ends_with("],1]"), "{named}: {stderr}");
+    assert!(stderr.contains("Exit code:    3"), "{stderr}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
@@ -341,10 +349,14 @@ fn reproduce_distributed_measures_every_layout() {
     }
     assert!(!dir.join("work-distributed").exists(), "work files left");
     let csv = std::fs::read_to_string(dir.join("distributed.csv")).unwrap();
-    let rows: Vec<Vec<&str>> = csv
+    let all: Vec<Vec<&str>> = csv
         .lines()
         .skip(1)
         .map(|l| l.split(',').collect())
+        .collect();
+    let rows: Vec<&Vec<&str>> = all
+        .iter()
+        .filter(|r| r[0] == "layout" || r[0] == "sweep")
         .collect();
     let layouts: Vec<(&str, &str, &str)> = rows.iter().map(|r| (r[0], r[2], r[4])).collect();
     assert_eq!(
@@ -373,6 +385,28 @@ fn reproduce_distributed_measures_every_layout() {
     }
     // The small batch needs more rounds than the large one.
     let rounds = |r: &Vec<&str>| r[15].parse::<u64>().unwrap();
-    assert!(rounds(&rows[4]) > rounds(&rows[5]), "{csv}");
+    assert!(rounds(rows[4]) > rounds(rows[5]), "{csv}");
+    // The animation (4 frames, caches kept): every layout's later frames reuse the first's
+    // records, and ranks that share compute fewer records in all than ranks that do not.
+    let frames = |layout: &str| -> Vec<u64> {
+        all.iter()
+            .filter(|r| r[0].starts_with("animation frame") && r[1] == layout)
+            .map(|r| r[11].parse().unwrap())
+            .collect()
+    };
+    for layout in [
+        "1 rank x 2 threads",
+        "2 ranks x 1 thread; shared",
+        "2 ranks x 1 thread; independent",
+    ] {
+        let f = frames(layout);
+        assert_eq!(f.len(), 4, "{layout}: {csv}");
+        assert!(f[1..].iter().all(|&n| n < f[0]), "{layout}: {f:?}");
+    }
+    let total = |layout: &str| frames(layout).iter().sum::<u64>();
+    assert!(
+        total("2 ranks x 1 thread; shared") < total("2 ranks x 1 thread; independent"),
+        "{csv}"
+    );
     std::fs::remove_dir_all(&dir).unwrap();
 }

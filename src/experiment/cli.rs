@@ -78,6 +78,10 @@ pub struct DistributedArgs {
     /// Skip Radiance (otherwise `rtrace` must be found: `pip install pyradiance`).
     #[arg(long)]
     pub no_radiance: bool,
+    /// Frames of the orbit animation, caches kept across frames (default 12, quick 4; 0 or 1:
+    /// none).
+    #[arg(long)]
+    pub frames: Option<usize>,
     /// Output directory.
     #[arg(long)]
     pub out_dir: PathBuf,
@@ -351,9 +355,14 @@ pub fn run(command: ReproduceCommand) -> Result<(), String> {
                 stride: 2,
                 radiance_resolution: 128,
                 radiance: !a.no_radiance,
+                animation_frames: a.frames.unwrap_or(if a.quick { 4 } else { 12 }),
             };
             println!("{}", machine.banner(&[1, 2, 4]));
-            let jobs = config.runs * (4 + config.batches.len()) + 2 + usize::from(config.radiance);
+            let animation = if config.animation_frames > 1 { 4 } else { 0 };
+            let jobs = config.runs * (4 + config.batches.len())
+                + 1
+                + animation
+                + usize::from(config.radiance);
             let pb = bar(jobs, a.quiet);
             let start = std::time::Instant::now();
             let mut first = true;

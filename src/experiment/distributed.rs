@@ -39,6 +39,8 @@ pub struct DistributedConfig {
     pub radiance_resolution: u32,
     /// Run Radiance (false: `--no-radiance`, or `rtrace` was not found).
     pub radiance: bool,
+    /// Frames of the orbit animation (0: none), the caches kept across frames.
+    pub animation_frames: usize,
 }
 
 /// One `mpirun` job's layout.
@@ -98,6 +100,30 @@ impl Job {
     }
 }
 
+/// One frame of an animation job.
+#[derive(Clone, Debug, PartialEq)]
+pub struct AnimFrame {
+    /// Rank 0's seconds for the frame.
+    pub seconds: f64,
+    /// Records computed in the frame, all ranks.
+    pub records: u64,
+    /// Of them, computed where another rank's record of the frame is also valid.
+    pub duplicates: u64,
+    /// Bytes sent in the frame, all ranks.
+    pub bytes: u64,
+}
+
+/// An orbit animation over one layout, the caches kept across frames.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Animation {
+    /// The layout.
+    pub layout: Layout,
+    /// Its frames.
+    pub frames: Vec<AnimFrame>,
+    /// The last frame's error against its brute-force image.
+    pub last_error: ImageError,
+}
+
 /// The experiment's results.
 #[derive(Clone, Debug)]
 pub struct Distributed {
@@ -109,6 +135,8 @@ pub struct Distributed {
     pub jobs: Vec<Job>,
     /// The batch sweep at 2 x 1.
     pub sweep: Vec<Job>,
+    /// The orbit animations (1 x 2, 2 x 1 shared, 2 x 1 independent).
+    pub animations: Vec<Animation>,
     /// Radiance at 1 and 2 processes, and its reference's seconds (`None`: not run).
     pub radiance: Option<(Vec<SharedAmbientRun>, f64)>,
     /// Radiance's version line.
@@ -163,6 +191,7 @@ impl Launcher {
         &self,
         layout: &Layout,
         config: &DistributedConfig,
+        frames: usize,
         dir: &Path,
     ) -> Result<(Image, serde_json::Value, f64), String> {
         let s = &config.settings;
@@ -202,6 +231,7 @@ impl Launcher {
             .args(["--threads", &layout.threads.to_string()])
             .args(["--batch-records", &layout.batch_records.to_string()])
             .args(["--batch-ms", &layout.batch_ms.to_string()])
+            .args(["--frames", &frames.to_string()])
             .arg("--out")
             .arg(&png)
             .arg("--stats")
@@ -227,8 +257,13 @@ impl Launcher {
                 String::from_utf8_lossy(&out.stderr).trim()
             ));
         }
-        let image = Image::read_pfm(&png.with_extension("pfm"))
-            .map_err(|e| format!("{}: {e}", png.display()))?;
+        // The last frame's image (`job-NNN.pfm` when there are several).
+        let pfm = if frames > 1 {
+            dir.join(format!("job-{:03}.pfm", frames - 1))
+        } else {
+            png.with_extension("pfm")
+        };
+        let image = Image::read_pfm(&pfm).map_err(|e| format!("{}: {e}", pfm.display()))?;
         let text =
             std::fs::read_to_string(&json).map_err(|e| format!("{}: {e}", json.display()))?;
         let stats = serde_json::from_str(&text).map_err(|e| format!("{}: {e}", json.display()))?;
@@ -333,7 +368,7 @@ pub fn run(
                 k + 1,
                 config.runs
             ));
-            let (image, stats, wall) = launcher.run(layout, config, &work)?;
+            let (image, stats, wall) = launcher.run(layout, config, 1, &work)?;
             runs.push((image, stats, wall));
         }
         let times: Vec<f64> = runs
@@ -388,6 +423,47 @@ pub fn run(
         };
         sweep.push(measure(&layout, progress)?);
     }
+    let mut animations = Vec::new();
+    if config.animation_frames > 1 {
+        let n = config.animation_frames;
+        progress("wfic reference of the animation's last frame");
+        let mut last = scenes::load(&config.scene)?;
+        last.set_camera(crate::render::Camera::orbit(
+            &scene,
+            (n - 1) as f32 / n as f32,
+        ));
+        let last_mask = radiance::surface_mask(&last, s, config.stride);
+        let (last_reference, _) =
+            render_reference_grid(&last, &last.camera(), &ref_settings, rc, 2, config.stride);
+        for layout in &layouts[..3] {
+            progress(&format!("animation, {n} frames: {}", layout.label));
+            let (image, json, _) = launcher.run(layout, config, n, &work)?;
+            let entries = json["frames"]
+                .as_array()
+                .ok_or_else(|| format!("animation statistics without frames: {json}"))?;
+            let mut frames = Vec::new();
+            for e in entries {
+                let ranks = e["ranks"]
+                    .as_array()
+                    .ok_or_else(|| format!("a frame without ranks: {e}"))?;
+                let mut bytes = 0;
+                for r in ranks {
+                    bytes += field(r, "bytes_sent")?;
+                }
+                frames.push(AnimFrame {
+                    seconds: seconds(e, "seconds")?,
+                    records: field(e, "records_computed")?,
+                    duplicates: field(e, "duplicates")?,
+                    bytes,
+                });
+            }
+            animations.push(Animation {
+                layout: *layout,
+                frames,
+                last_error: image_error(&image, &last_reference, &last_mask),
+            });
+        }
+    }
     let (radiance, radiance_version) = match &bin {
         Some(bin) => {
             progress("radiance: reference and rtrace -n 1, -n 2 on one ambient file");
@@ -410,6 +486,7 @@ pub fn run(
         machine: machine.clone(),
         jobs,
         sweep,
+        animations,
         radiance,
         radiance_version,
         reference_seconds,
@@ -697,6 +774,44 @@ impl Distributed {
                 pct(j.error.rel_rmse)
             );
         }
+        if !self.animations.is_empty() {
+            let n = self.animations[0].frames.len();
+            let _ = writeln!(
+                md,
+                "\n## The orbit animation: {n} frames, the caches kept across frames\n\nThe \
+                 scene's orbit camera, frame i at turn i / {n}; every rank keeps its cache (and \
+                 the records the others sent) from frame to frame, as the paper's animation \
+                 (§4.2) does in one process. Duplicates are counted within each frame. Error: \
+                 the last frame against its brute-force image.\n"
+            );
+            let _ = writeln!(
+                md,
+                "| layout | first frame (s) | later frames, mean (s) | total (s) | records, \
+                 first | records, later (mean) | records, all | duplicates, all | bytes sent, \
+                 all | last frame's error |"
+            );
+            let _ = writeln!(md, "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+            for a in &self.animations {
+                let later = &a.frames[1..];
+                let mean = |f: &dyn Fn(&AnimFrame) -> f64| {
+                    later.iter().map(f).sum::<f64>() / later.len().max(1) as f64
+                };
+                let _ = writeln!(
+                    md,
+                    "| {} | {:.3} | {:.3} | {:.3} | {} | {:.0} | {} | {} | {} | {} |",
+                    a.layout.label,
+                    a.frames[0].seconds,
+                    mean(&|f| f.seconds),
+                    a.frames.iter().map(|f| f.seconds).sum::<f64>(),
+                    a.frames[0].records,
+                    mean(&|f| f.records as f64),
+                    a.frames.iter().map(|f| f.records).sum::<u64>(),
+                    a.frames.iter().map(|f| f.duplicates).sum::<u64>(),
+                    kib(a.frames.iter().map(|f| f.bytes).sum()),
+                    pct(a.last_error.rel_rmse)
+                );
+            }
+        }
         let (insert, wire) = self.calibration();
         let _ = writeln!(
             md,
@@ -755,6 +870,25 @@ impl Distributed {
                     j.received,
                     j.error.rel_rmse,
                     j.error.mean_rel
+                );
+            }
+        }
+        for a in &self.animations {
+            let l = &a.layout;
+            for (i, f) in a.frames.iter().enumerate() {
+                let _ = writeln!(
+                    out,
+                    "animation frame {i},{},{},{},{},{},{},{:.4},,,,{},,{},{},,,,,,",
+                    l.label.replace(',', ";"),
+                    l.ranks,
+                    l.threads,
+                    l.share,
+                    l.batch_records,
+                    l.batch_ms,
+                    f.seconds,
+                    f.records,
+                    f.duplicates,
+                    f.bytes
                 );
             }
         }

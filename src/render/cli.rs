@@ -131,6 +131,11 @@ pub struct RenderArgs {
     /// With --distributed: the ranks' caches share nothing (the baseline).
     #[arg(long, requires = "distributed")]
     pub no_share: bool,
+    /// With --distributed: render this many frames of the scene's orbit camera (frame i at time
+    /// i / N), each rank keeping its cache across the frames; outputs get `-000`, `-001`, ...
+    /// before their extension, and the statistics hold one entry a frame.
+    #[arg(long, default_value_t = 1, requires = "distributed")]
+    pub frames: usize,
     /// With --distributed, for the failure tests: this rank fails after its first tile.
     #[arg(long, hide = true, requires = "distributed")]
     pub fail_rank: Option<u32>,
@@ -354,7 +359,7 @@ fn run_distributed(_: RenderArgs) -> Result<(), RenderError> {
 /// `wfic render --distributed`, on every rank of the job.
 #[cfg(feature = "mpi")]
 fn run_distributed(args: RenderArgs) -> Result<(), RenderError> {
-    use super::distributed::{render_distributed, Exchange};
+    use super::distributed::{render_distributed_frames, Exchange};
     use mpi::traits::{Communicator, CommunicatorCollectives};
     let Some((universe, threading)) = mpi::initialize_with_threading(mpi::Threading::Multiple)
     else {
@@ -429,12 +434,21 @@ fn run_distributed(args: RenderArgs) -> Result<(), RenderError> {
         batch_ms: args.batch_ms,
         share: !args.no_share,
     };
-    let camera = scene.camera();
+    if args.frames == 0 {
+        return Err(refuse(format!("rank {rank}: --frames must be at least 1")));
+    }
+    let cameras: Vec<Camera> = if args.frames == 1 {
+        vec![scene.camera()]
+    } else {
+        (0..args.frames)
+            .map(|i| Camera::orbit(&scene, i as f32 / args.frames as f32))
+            .collect()
+    };
     let fail = args.fail_rank.map(|r| (r, args.fail_exit));
-    let frame = render_distributed(
+    let frames = render_distributed_frames(
         &world,
         &scene,
-        &camera,
+        &cameras,
         &settings,
         config,
         args.threads,
@@ -442,71 +456,103 @@ fn run_distributed(args: RenderArgs) -> Result<(), RenderError> {
         fail,
     )
     .map_err(|e| refuse(e.to_string()))?;
-    let Some(frame) = frame else {
+    let Some(frames) = frames else {
         return Ok(());
     };
     let io = |path: &Path, e: std::io::Error| RenderError::Io(format!("{}: {e}", path.display()));
-    let exposure = frame.image.auto_exposure();
-    frame
-        .image
-        .write_png(&args.out, exposure)
-        .map_err(|e| io(&args.out, e))?;
-    let pfm = args
-        .pfm
-        .clone()
-        .unwrap_or_else(|| args.out.with_extension("pfm"));
-    frame.image.write_pfm(&pfm).map_err(|e| io(&pfm, e))?;
-    let overlay = args
-        .records
-        .clone()
-        .unwrap_or_else(|| with_suffix(&args.out, "-records.png"));
-    let view = camera.view(settings.width, settings.height);
-    let points: Vec<_> = frame
-        .records
-        .iter()
-        .filter_map(|(rank, r)| view.project(r.position).map(|p| (p, worker_colour(*rank))))
-        .collect();
-    frame
-        .image
-        .write_overlay_png(&overlay, exposure, &points)
-        .map_err(|e| io(&overlay, e))?;
-    let computed: u64 = frame.ranks.iter().map(|r| r.records_computed).sum();
-    if let Some(path) = &args.stats {
-        let json = serde_json::json!({
-            "scene": scene.name(),
-            "triangles": scene.triangle_count(),
-            "width": settings.width,
-            "height": settings.height,
+    let mut entries = Vec::new();
+    for (i, (frame, camera)) in frames.iter().zip(&cameras).enumerate() {
+        let one = frames.len() == 1;
+        let numbered = |p: &Path| {
+            if one {
+                p.to_path_buf()
+            } else {
+                let ext = p
+                    .extension()
+                    .map_or(String::new(), |e| format!(".{}", e.to_string_lossy()));
+                with_suffix(&p.with_extension(""), &format!("-{i:03}{ext}"))
+            }
+        };
+        let out = numbered(&args.out);
+        let exposure = frame.image.auto_exposure();
+        frame
+            .image
+            .write_png(&out, exposure)
+            .map_err(|e| io(&out, e))?;
+        let pfm = numbered(
+            &args
+                .pfm
+                .clone()
+                .unwrap_or_else(|| args.out.with_extension("pfm")),
+        );
+        frame.image.write_pfm(&pfm).map_err(|e| io(&pfm, e))?;
+        let overlay = numbered(
+            &args
+                .records
+                .clone()
+                .unwrap_or_else(|| with_suffix(&args.out, "-records.png")),
+        );
+        let view = camera.view(settings.width, settings.height);
+        let points: Vec<_> = frame
+            .records
+            .iter()
+            .filter_map(|(rank, r)| view.project(r.position).map(|p| (p, worker_colour(*rank))))
+            .collect();
+        frame
+            .image
+            .write_overlay_png(&overlay, exposure, &points)
+            .map_err(|e| io(&overlay, e))?;
+        let computed: u64 = frame.ranks.iter().map(|r| r.records_computed).sum();
+        entries.push(serde_json::json!({
             "ranks": frame.ranks,
             "records_computed": computed,
             "duplicates": frame.duplicates,
             "seconds": frame.seconds,
+        }));
+        let sent: u64 = frame.ranks.iter().map(|r| r.bytes_sent).sum();
+        println!(
+            "{} distributed over {} ranks ({}): {:.3} s, {} records computed ({} duplicates), \
+             {} bytes exchanged; wrote {}, {}, {}",
+            scene.name(),
+            size,
+            frame
+                .ranks
+                .iter()
+                .map(|r| format!(
+                    "rank {}: {} threads, {} tiles, {} records",
+                    r.rank, r.threads, r.tiles, r.records_computed
+                ))
+                .collect::<Vec<_>>()
+                .join("; "),
+            frame.seconds,
+            computed,
+            frame.duplicates,
+            sent,
+            out.display(),
+            pfm.display(),
+            overlay.display(),
+        );
+    }
+    if let Some(path) = &args.stats {
+        let mut json = serde_json::json!({
+            "scene": scene.name(),
+            "triangles": scene.triangle_count(),
+            "width": settings.width,
+            "height": settings.height,
             "batch_records": exchange.batch_records,
             "batch_ms": exchange.batch_ms,
             "share": exchange.share,
         });
+        let fields = json.as_object_mut().expect("an object");
+        if entries.len() == 1 {
+            if let Some(serde_json::Value::Object(entry)) = entries.pop() {
+                fields.extend(entry);
+            }
+        } else {
+            fields.insert("frames".to_owned(), serde_json::Value::Array(entries));
+        }
         let text = serde_json::to_string_pretty(&json).expect("statistics serialise") + "\n";
         std::fs::write(path, text).map_err(|e| io(path, e))?;
     }
-    let sent: u64 = frame.ranks.iter().map(|r| r.bytes_sent).sum();
-    println!(
-        "{} distributed over {} ranks ({}): {:.3} s, {} records computed ({} duplicates), {} bytes \
-         exchanged; wrote {}, {}, {}",
-        scene.name(),
-        size,
-        frame
-            .ranks
-            .iter()
-            .map(|r| format!("rank {}: {} threads, {} tiles, {} records", r.rank, r.threads, r.tiles, r.records_computed))
-            .collect::<Vec<_>>()
-            .join("; "),
-        frame.seconds,
-        computed,
-        frame.duplicates,
-        sent,
-        args.out.display(),
-        pfm.display(),
-        overlay.display(),
-    );
     Ok(())
 }

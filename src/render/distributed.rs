@@ -383,13 +383,60 @@ pub fn render_distributed(
     exchange: &Exchange,
     fail: Option<(u32, bool)>,
 ) -> Result<Option<DistributedFrame>, DistributedError> {
-    let start = Instant::now();
+    let frames = render_distributed_frames(
+        world,
+        scene,
+        std::slice::from_ref(camera),
+        settings,
+        config,
+        threads,
+        exchange,
+        fail,
+    )?;
+    Ok(frames.and_then(|mut f| f.pop()))
+}
+
+/// Renders one frame per camera, in order, over the ranks of `world`, each rank keeping its
+/// cache from frame to frame (the animation of the paper's §4.2, shared between processes): a
+/// frame's records, and the records the other ranks sent during it, serve every later frame.
+/// Rank 0 gets the frames; the others get `None`. Arguments and errors as
+/// [`render_distributed`]; the fingerprint covers every camera.
+///
+/// # Errors
+/// [`DistributedError::Mismatch`] on every rank when the ranks' scenes, cameras or settings
+/// differ.
+#[allow(clippy::too_many_arguments)]
+pub fn render_distributed_frames(
+    world: &SimpleCommunicator,
+    scene: &Scene,
+    cameras: &[Camera],
+    settings: &RenderSettings,
+    config: CacheConfig,
+    threads: usize,
+    exchange: &Exchange,
+    fail: Option<(u32, bool)>,
+) -> Result<Option<Vec<DistributedFrame>>, DistributedError> {
     let rank = world.rank() as u32;
     let size = world.size() as usize;
     let threads = threads.max(1);
+    let Some(first) = cameras.first() else {
+        return Ok((rank == 0).then(Vec::new));
+    };
 
     // Agreement: every rank gathers every fingerprint, so every rank reaches the same verdict.
-    let (line, print) = fingerprint(scene, camera, settings, exchange);
+    let (mut line, print) = fingerprint(scene, first, settings, exchange);
+    let mut h = Fnv::new();
+    h.write(print);
+    h.write(cameras.len() as u64);
+    for c in cameras {
+        for x in c.eye.to_array().into_iter().chain(c.target.to_array()) {
+            h.write(u64::from(x.to_bits()));
+        }
+    }
+    let print = h.finish();
+    if cameras.len() > 1 {
+        line.push_str(&format!(", {} frames", cameras.len()));
+    }
     let mut prints = vec![0u64; size];
     world.all_gather_into(&print, &mut prints[..]);
     let differing: Vec<u32> = (0..size as u32)
@@ -404,249 +451,254 @@ pub fn render_distributed(
     }
 
     let mut cache = WaitFree::<Minimal>::new(config, CasFailure::Adopt);
-    let integrator = PixelIntegrator::new(scene, camera, settings, config.accuracy());
-    let tiles = super::parallel::Tiles::new(settings);
-    let mut plan = TilePlan::new(tiles.count);
-    let shared = Shared {
-        queue: Mutex::new(VecDeque::new()),
-        exhausted: AtomicBool::new(false),
-        finished: AtomicUsize::new(0),
-        outbox: Mutex::new(Vec::new()),
-        tiles_done: AtomicUsize::new(0),
-    };
-    let mut stats = RankStats {
-        rank,
-        threads,
-        received_digests: vec![Fnv::new().finish(); size],
-        ..RankStats::default()
-    };
-    let mut sent_digest = Fnv::new();
-    let mut received_digest: Vec<Fnv> = (0..size).map(|_| Fnv::new()).collect();
-    let mut computed: Vec<Record> = Vec::new();
+    let mut frames = Vec::with_capacity(cameras.len());
+    for camera in cameras {
+        let start = Instant::now();
+        let integrator = PixelIntegrator::new(scene, camera, settings, config.accuracy());
+        let tiles = super::parallel::Tiles::new(settings);
+        let mut plan = TilePlan::new(tiles.count);
+        let shared = Shared {
+            queue: Mutex::new(VecDeque::new()),
+            exhausted: AtomicBool::new(false),
+            finished: AtomicUsize::new(0),
+            outbox: Mutex::new(Vec::new()),
+            tiles_done: AtomicUsize::new(0),
+        };
+        let mut stats = RankStats {
+            rank,
+            threads,
+            received_digests: vec![Fnv::new().finish(); size],
+            ..RankStats::default()
+        };
+        let mut sent_digest = Fnv::new();
+        let mut received_digest: Vec<Fnv> = (0..size).map(|_| Fnv::new()).collect();
+        let mut computed: Vec<Record> = Vec::new();
 
-    let frame = cache.frame();
-    let outputs = crate::sync::thread::scope(|s| {
-        let render = s.spawn(|| {
-            frame.run(threads, |handle, _| {
-                let mut handle = Sending {
-                    inner: handle,
-                    outbox: &shared.outbox,
-                };
-                let mut counters = SampleCounters::default();
-                let mut out: Vec<(usize, Vec<Vec3>)> = Vec::new();
-                loop {
-                    let tile = crate::sync::unpoison(shared.queue.lock()).pop_front();
-                    let Some(tile) = tile else {
-                        // Acquire: pairs with the main thread's Release store, which it makes
-                        // after pushing the last tiles; a worker that sees `exhausted` and then
-                        // an empty queue has seen every tile its rank will get.
-                        if shared.exhausted.load(Ordering::Acquire)
-                            && crate::sync::unpoison(shared.queue.lock()).is_empty()
-                        {
-                            break;
-                        }
-                        std::thread::sleep(Duration::from_micros(200));
-                        continue;
+        let frame = cache.frame();
+        let outputs = crate::sync::thread::scope(|s| {
+            let render = s.spawn(|| {
+                frame.run(threads, |handle, _| {
+                    let mut handle = Sending {
+                        inner: handle,
+                        outbox: &shared.outbox,
                     };
-                    let (x0, y0, x1, y1) = tiles.rect(tile);
-                    let mut pixels = Vec::with_capacity(((x1 - x0) * (y1 - y0)) as usize);
-                    for y in y0..y1 {
-                        for x in x0..x1 {
-                            pixels.push(integrator.pixel(x, y, &mut handle, &mut counters));
+                    let mut counters = SampleCounters::default();
+                    let mut out: Vec<(usize, Vec<Vec3>)> = Vec::new();
+                    loop {
+                        let tile = crate::sync::unpoison(shared.queue.lock()).pop_front();
+                        let Some(tile) = tile else {
+                            // Acquire: pairs with the main thread's Release store, which it makes
+                            // after pushing the last tiles; a worker that sees `exhausted` and then
+                            // an empty queue has seen every tile its rank will get.
+                            if shared.exhausted.load(Ordering::Acquire)
+                                && crate::sync::unpoison(shared.queue.lock()).is_empty()
+                            {
+                                break;
+                            }
+                            std::thread::sleep(Duration::from_micros(200));
+                            continue;
+                        };
+                        let (x0, y0, x1, y1) = tiles.rect(tile);
+                        let mut pixels = Vec::with_capacity(((x1 - x0) * (y1 - y0)) as usize);
+                        for y in y0..y1 {
+                            for x in x0..x1 {
+                                pixels.push(integrator.pixel(x, y, &mut handle, &mut counters));
+                            }
+                        }
+                        out.push((tile, pixels));
+                        // Relaxed: a count the main thread only reports; nothing is published
+                        // through it.
+                        shared.tiles_done.fetch_add(1, Ordering::Relaxed);
+                        if fail == Some((rank, false)) {
+                            panic!("rank {rank}: the failure asked for by --fail-rank");
+                        }
+                        if fail == Some((rank, true)) {
+                            eprintln!("rank {rank}: exiting as asked by --fail-rank");
+                            std::process::exit(3);
                         }
                     }
-                    out.push((tile, pixels));
-                    // Relaxed: a count the main thread only reports; nothing is published
-                    // through it.
-                    shared.tiles_done.fetch_add(1, Ordering::Relaxed);
-                    if fail == Some((rank, false)) {
-                        panic!("rank {rank}: the failure asked for by --fail-rank");
-                    }
-                    if fail == Some((rank, true)) {
-                        eprintln!("rank {rank}: exiting as asked by --fail-rank");
-                        std::process::exit(3);
-                    }
-                }
-                // Release: pairs with the main thread's Acquire load; the worker's last
-                // records are in the outbox (under its mutex) before it counts itself out.
-                shared.finished.fetch_add(1, Ordering::Release);
-                (out, counters)
-            })
-        });
+                    // Release: pairs with the main thread's Acquire load; the worker's last
+                    // records are in the outbox (under its mutex) before it counts itself out.
+                    shared.finished.fetch_add(1, Ordering::Release);
+                    (out, counters)
+                })
+            });
 
-        // The rounds, on this (MPI's) thread, with a handle of their own for the others'
-        // records.
-        let mut remote = frame.handle_for(WorkerId::new(threads as u32));
-        let period = Duration::from_millis(exchange.batch_ms);
-        let mut last: Option<Instant> = None;
-        loop {
-            // Wait for the batch's size or time, or for the rank's workers to run dry.
+            // The rounds, on this (MPI's) thread, with a handle of their own for the others'
+            // records.
+            let mut remote = frame.handle_for(WorkerId::new(threads as u32));
+            let period = Duration::from_millis(exchange.batch_ms);
+            let mut last: Option<Instant> = None;
             loop {
-                let pending = crate::sync::unpoison(shared.outbox.lock()).len();
-                let queued = crate::sync::unpoison(shared.queue.lock()).len();
-                if pending >= exchange.batch_records.max(1)
-                    || last.map_or(true, |l| l.elapsed() >= period)
-                    || (queued < threads && !plan.exhausted())
-                    || render.is_finished()
-                {
+                // Wait for the batch's size or time, or for the rank's workers to run dry.
+                loop {
+                    let pending = crate::sync::unpoison(shared.outbox.lock()).len();
+                    let queued = crate::sync::unpoison(shared.queue.lock()).len();
+                    if pending >= exchange.batch_records.max(1)
+                        || last.map_or(true, |l| l.elapsed() >= period)
+                        || (queued < threads && !plan.exhausted())
+                        || render.is_finished()
+                    {
+                        break;
+                    }
+                    std::thread::sleep(Duration::from_micros(250));
+                }
+                last = Some(Instant::now());
+                // Acquire: pairs with each worker's Release increment (see there): once every
+                // worker has counted itself out, the outbox taken below holds all its records.
+                let done = shared.finished.load(Ordering::Acquire) == threads;
+                let new = std::mem::take(&mut *crate::sync::unpoison(shared.outbox.lock()));
+                let outgoing: Vec<WireRecord> = if exchange.share {
+                    new.iter().map(|r| WireRecord::new(r, rank)).collect()
+                } else {
+                    Vec::new()
+                };
+                for r in &outgoing {
+                    for x in r.fields {
+                        sent_digest.write(u64::from(x.to_bits()));
+                    }
+                    sent_digest.write(u64::from(r.origin));
+                }
+                computed.extend(new);
+                let queued = crate::sync::unpoison(shared.queue.lock()).len() as u64;
+                let state = [
+                    queued,
+                    2 * threads as u64,
+                    u64::from(done && plan.exhausted()),
+                    outgoing.len() as u64,
+                ];
+                let mut states = vec![0u64; 4 * size];
+                let entered = Instant::now();
+                world.all_gather_into(&state[..], &mut states[..]);
+                let counts: Vec<Count> = (0..size).map(|r| states[4 * r + 3] as Count).collect();
+                let total: usize = counts.iter().map(|&c| c as usize).sum();
+                if total > 0 {
+                    let displs: Vec<Count> = counts
+                        .iter()
+                        .scan(0, |at, &c| {
+                            let d = *at;
+                            *at += c;
+                            Some(d)
+                        })
+                        .collect();
+                    let mut incoming = vec![WireRecord::default(); total];
+                    {
+                        let mut partition =
+                            PartitionMut::new(&mut incoming[..], &counts[..], &displs[..]);
+                        world.all_gather_varcount_into(&outgoing[..], &mut partition);
+                    }
+                    stats.collective_seconds += entered.elapsed().as_secs_f64();
+                    let inserting = Instant::now();
+                    let bytes = std::mem::size_of::<WireRecord>() as u64;
+                    stats.records_sent += outgoing.len() as u64;
+                    stats.bytes_sent += bytes * outgoing.len() as u64 * (size as u64 - 1);
+                    for r in incoming.iter().filter(|r| r.origin != rank) {
+                        stats.records_received += 1;
+                        stats.bytes_received += bytes;
+                        let d = &mut received_digest[r.origin as usize];
+                        for x in r.fields {
+                            d.write(u64::from(x.to_bits()));
+                        }
+                        d.write(u64::from(r.origin));
+                        if let Ok(Inserted::Stored(_)) = remote.insert(r.record()) {
+                            stats.records_inserted += 1;
+                        }
+                    }
+                    stats.insert_seconds += inserting.elapsed().as_secs_f64();
+                } else {
+                    stats.collective_seconds += entered.elapsed().as_secs_f64();
+                }
+                stats.rounds += 1;
+                // Every rank sees the same states, so every rank advances the plan the same way.
+                let queued: Vec<u64> = (0..size).map(|r| states[4 * r]).collect();
+                let want: Vec<u64> = (0..size).map(|r| states[4 * r + 1]).collect();
+                let all_done = (0..size).all(|r| states[4 * r + 2] == 1);
+                let given = plan.hand_out(&queued, &want);
+                crate::sync::unpoison(shared.queue.lock()).extend(given[rank as usize].clone());
+                if plan.exhausted() {
+                    // Release: pairs with the workers' Acquire load (see there); the last tiles
+                    // are in the queue before it.
+                    shared.exhausted.store(true, Ordering::Release);
+                }
+                if all_done && total == 0 {
                     break;
                 }
-                std::thread::sleep(Duration::from_micros(250));
             }
-            last = Some(Instant::now());
-            // Acquire: pairs with each worker's Release increment (see there): once every
-            // worker has counted itself out, the outbox taken below holds all its records.
-            let done = shared.finished.load(Ordering::Acquire) == threads;
-            let new = std::mem::take(&mut *crate::sync::unpoison(shared.outbox.lock()));
-            let outgoing: Vec<WireRecord> = if exchange.share {
-                new.iter().map(|r| WireRecord::new(r, rank)).collect()
-            } else {
-                Vec::new()
-            };
-            for r in &outgoing {
-                for x in r.fields {
-                    sent_digest.write(u64::from(x.to_bits()));
-                }
-                sent_digest.write(u64::from(r.origin));
-            }
-            computed.extend(new);
-            let queued = crate::sync::unpoison(shared.queue.lock()).len() as u64;
-            let state = [
-                queued,
-                2 * threads as u64,
-                u64::from(done && plan.exhausted()),
-                outgoing.len() as u64,
-            ];
-            let mut states = vec![0u64; 4 * size];
-            let entered = Instant::now();
-            world.all_gather_into(&state[..], &mut states[..]);
-            let counts: Vec<Count> = (0..size).map(|r| states[4 * r + 3] as Count).collect();
-            let total: usize = counts.iter().map(|&c| c as usize).sum();
-            if total > 0 {
-                let displs: Vec<Count> = counts
-                    .iter()
-                    .scan(0, |at, &c| {
-                        let d = *at;
-                        *at += c;
-                        Some(d)
-                    })
-                    .collect();
-                let mut incoming = vec![WireRecord::default(); total];
-                {
-                    let mut partition =
-                        PartitionMut::new(&mut incoming[..], &counts[..], &displs[..]);
-                    world.all_gather_varcount_into(&outgoing[..], &mut partition);
-                }
-                stats.collective_seconds += entered.elapsed().as_secs_f64();
-                let inserting = Instant::now();
-                let bytes = std::mem::size_of::<WireRecord>() as u64;
-                stats.records_sent += outgoing.len() as u64;
-                stats.bytes_sent += bytes * outgoing.len() as u64 * (size as u64 - 1);
-                for r in incoming.iter().filter(|r| r.origin != rank) {
-                    stats.records_received += 1;
-                    stats.bytes_received += bytes;
-                    let d = &mut received_digest[r.origin as usize];
-                    for x in r.fields {
-                        d.write(u64::from(x.to_bits()));
-                    }
-                    d.write(u64::from(r.origin));
-                    if let Ok(Inserted::Stored(_)) = remote.insert(r.record()) {
-                        stats.records_inserted += 1;
-                    }
-                }
-                stats.insert_seconds += inserting.elapsed().as_secs_f64();
-            } else {
-                stats.collective_seconds += entered.elapsed().as_secs_f64();
-            }
-            stats.rounds += 1;
-            // Every rank sees the same states, so every rank advances the plan the same way.
-            let queued: Vec<u64> = (0..size).map(|r| states[4 * r]).collect();
-            let want: Vec<u64> = (0..size).map(|r| states[4 * r + 1]).collect();
-            let all_done = (0..size).all(|r| states[4 * r + 2] == 1);
-            let given = plan.hand_out(&queued, &want);
-            crate::sync::unpoison(shared.queue.lock()).extend(given[rank as usize].clone());
-            if plan.exhausted() {
-                // Release: pairs with the workers' Acquire load (see there); the last tiles
-                // are in the queue before it.
-                shared.exhausted.store(true, Ordering::Release);
-            }
-            if all_done && total == 0 {
-                break;
-            }
+            drop(remote);
+            render
+                .join()
+                .unwrap_or_else(|p| std::panic::resume_unwind(p))
+        });
+        stats.seconds = start.elapsed().as_secs_f64();
+        frame.close();
+        stats.cache_records = cache.stats().records as u64;
+        stats.sent_digest = sent_digest.finish();
+        stats.received_digests = received_digest.iter().map(Fnv::finish).collect();
+        stats.received_digests[rank as usize] = 0;
+        let mut counters = SampleCounters::default();
+        let mut mine: Vec<(usize, Vec<Vec3>)> = Vec::new();
+        for (out, c) in outputs {
+            mine.extend(out);
+            counters += c;
         }
-        drop(remote);
-        render
-            .join()
-            .unwrap_or_else(|p| std::panic::resume_unwind(p))
-    });
-    stats.seconds = start.elapsed().as_secs_f64();
-    frame.close();
-    stats.cache_records = cache.stats().records as u64;
-    stats.sent_digest = sent_digest.finish();
-    stats.received_digests = received_digest.iter().map(Fnv::finish).collect();
-    stats.received_digests[rank as usize] = 0;
-    let mut counters = SampleCounters::default();
-    let mut mine: Vec<(usize, Vec<Vec3>)> = Vec::new();
-    for (out, c) in outputs {
-        mine.extend(out);
-        counters += c;
-    }
-    stats.tiles = mine.len();
-    stats.ic_samples = counters.ic_samples;
-    stats.records_computed = computed.len() as u64;
+        stats.tiles = mine.len();
+        stats.ic_samples = counters.ic_samples;
+        stats.records_computed = computed.len() as u64;
 
-    // Assembly on rank 0: tiles, statistics, computed records.
-    let root = world.process_at_rank(0);
-    let index: Vec<u64> = mine.iter().map(|(t, _)| *t as u64).collect();
-    let pixels: Vec<f32> = mine
-        .iter()
-        .flat_map(|(_, p)| p.iter().flat_map(|v| v.to_array()))
-        .collect();
-    let wire: Vec<WireRecord> = computed.iter().map(|r| WireRecord::new(r, rank)).collect();
-    let json = serde_json::to_string(&stats).expect("rank statistics serialise");
-    let gathered_index = gather(world, &root, &index);
-    let gathered_pixels = gather(world, &root, &pixels);
-    let gathered_records = gather(world, &root, &wire);
-    let gathered_json = gather(world, &root, json.as_bytes());
-    if rank != 0 {
-        return Ok(None);
-    }
-    let (index, pixels, wire, json) = (
-        gathered_index.expect("rank 0 gathers"),
-        gathered_pixels.expect("rank 0 gathers"),
-        gathered_records.expect("rank 0 gathers"),
-        gathered_json.expect("rank 0 gathers"),
-    );
-    let mut image = Image::new(settings.width, settings.height);
-    for (tiles_of_rank, pixels_of_rank) in index.iter().zip(&pixels) {
-        let mut at = 0;
-        for tile in tiles_of_rank {
-            let (x0, y0, x1, y1) = tiles.rect(*tile as usize);
-            for y in y0..y1 {
-                for x in x0..x1 {
-                    image.set(x, y, Vec3::from_slice(&pixels_of_rank[at..at + 3]));
-                    at += 3;
+        // Assembly on rank 0: tiles, statistics, computed records.
+        let root = world.process_at_rank(0);
+        let index: Vec<u64> = mine.iter().map(|(t, _)| *t as u64).collect();
+        let pixels: Vec<f32> = mine
+            .iter()
+            .flat_map(|(_, p)| p.iter().flat_map(|v| v.to_array()))
+            .collect();
+        let wire: Vec<WireRecord> = computed.iter().map(|r| WireRecord::new(r, rank)).collect();
+        let json = serde_json::to_string(&stats).expect("rank statistics serialise");
+        let gathered_index = gather(world, &root, &index);
+        let gathered_pixels = gather(world, &root, &pixels);
+        let gathered_records = gather(world, &root, &wire);
+        let gathered_json = gather(world, &root, json.as_bytes());
+        if rank != 0 {
+            continue;
+        }
+        let (index, pixels, wire, json) = (
+            gathered_index.expect("rank 0 gathers"),
+            gathered_pixels.expect("rank 0 gathers"),
+            gathered_records.expect("rank 0 gathers"),
+            gathered_json.expect("rank 0 gathers"),
+        );
+        let mut image = Image::new(settings.width, settings.height);
+        for (tiles_of_rank, pixels_of_rank) in index.iter().zip(&pixels) {
+            let mut at = 0;
+            for tile in tiles_of_rank {
+                let (x0, y0, x1, y1) = tiles.rect(*tile as usize);
+                for y in y0..y1 {
+                    for x in x0..x1 {
+                        image.set(x, y, Vec3::from_slice(&pixels_of_rank[at..at + 3]));
+                        at += 3;
+                    }
                 }
             }
         }
+        let ranks: Vec<RankStats> = json
+            .iter()
+            .map(|b| serde_json::from_slice(b).expect("a rank's statistics parse"))
+            .collect();
+        let records: Vec<(u32, Record)> = wire
+            .iter()
+            .flatten()
+            .map(|w| (w.origin, w.record()))
+            .collect();
+        let duplicates = count_duplicates(&records, config.accuracy());
+        frames.push(DistributedFrame {
+            image,
+            ranks,
+            records,
+            duplicates,
+            seconds: start.elapsed().as_secs_f64(),
+        });
     }
-    let ranks: Vec<RankStats> = json
-        .iter()
-        .map(|b| serde_json::from_slice(b).expect("a rank's statistics parse"))
-        .collect();
-    let records: Vec<(u32, Record)> = wire
-        .iter()
-        .flatten()
-        .map(|w| (w.origin, w.record()))
-        .collect();
-    let duplicates = count_duplicates(&records, config.accuracy());
-    Ok(Some(DistributedFrame {
-        image,
-        ranks,
-        records,
-        duplicates,
-        seconds: start.elapsed().as_secs_f64(),
-    }))
+    Ok((rank == 0).then_some(frames))
 }
 
 /// Records computed where a record that another rank computed is also valid (Ward's weight at the
