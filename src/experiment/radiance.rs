@@ -543,16 +543,7 @@ pub fn compare_scene(
     .map_err(|e| e.to_string())?;
 
     let rtrace = |args: &[String], workers: usize, amb: Option<&Path>| {
-        let mut c = bin.command("rtrace");
-        c.args(["-h-", "-fff", "-ab", "1", "-av", "0", "0", "0", "-aw", "0"]);
-        c.args(["-dj", "0", "-lw", "1e-7"]);
-        c.args(args);
-        c.args(["-n", &workers.to_string()]);
-        if let Some(amb) = amb {
-            c.arg("-af").arg(amb);
-        }
-        c.arg(&oct);
-        c
+        rtrace_command(bin, &oct, args, workers, amb)
     };
     let cache_args = |a: f32, n: u32| -> Vec<String> {
         [
@@ -853,6 +844,28 @@ fn masked_mean(img: &Image, mask: &[bool]) -> f64 {
             (s + f64::from(luminance(*p)), n + 1)
         });
     sum / n.max(1) as f64
+}
+
+/// `rtrace` on the octree `oct` as both comparisons run it: one bounce (`-ab 1`), no ambient
+/// value or weight, deterministic direct light (`-dj 0`), binary floats in and out, `workers`
+/// processes, sharing the ambient file `amb` when given; `args` add the cache's settings.
+fn rtrace_command(
+    bin: &RadianceBin,
+    oct: &Path,
+    args: &[String],
+    workers: usize,
+    amb: Option<&Path>,
+) -> Command {
+    let mut c = bin.command("rtrace");
+    c.args(["-h-", "-fff", "-ab", "1", "-av", "0", "0", "0", "-aw", "0"]);
+    c.args(["-dj", "0", "-lw", "1e-7"]);
+    c.args(args);
+    c.args(["-n", &workers.to_string()]);
+    if let Some(amb) = amb {
+        c.arg("-af").arg(amb);
+    }
+    c.arg(oct);
+    c
 }
 
 /// Records in a Radiance ambient file, counted from `lookamb -h`'s text (one `Position` line a
@@ -1290,16 +1303,7 @@ pub fn shared_ambient(
     let grid_rays = work.join("grid-rays.f32");
     write_rays(scene, settings, stride, &grid_rays)?;
     let rtrace = |args: &[String], workers: usize, amb: Option<&Path>| {
-        let mut c = bin.command("rtrace");
-        c.args(["-h-", "-fff", "-ab", "1", "-av", "0", "0", "0", "-aw", "0"]);
-        c.args(["-dj", "0", "-lw", "1e-7"]);
-        c.args(args);
-        c.args(["-n", &workers.to_string()]);
-        if let Some(amb) = amb {
-            c.arg("-af").arg(amb);
-        }
-        c.arg(&oct);
-        c
+        rtrace_command(bin, &oct, args, workers, amb)
     };
     let ref_out = work.join("ref.f32");
     let ref_args = ["-aa", "0", "-ad", &(4 * n).to_string(), "-as", "0"].map(str::to_owned);

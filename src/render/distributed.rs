@@ -573,14 +573,7 @@ pub fn render_distributed_frames(
                 let counts: Vec<Count> = (0..size).map(|r| states[4 * r + 3] as Count).collect();
                 let total: usize = counts.iter().map(|&c| c as usize).sum();
                 if total > 0 {
-                    let displs: Vec<Count> = counts
-                        .iter()
-                        .scan(0, |at, &c| {
-                            let d = *at;
-                            *at += c;
-                            Some(d)
-                        })
-                        .collect();
+                    let displs = displacements(&counts);
                     let mut incoming = vec![WireRecord::default(); total];
                     {
                         let mut partition =
@@ -714,6 +707,18 @@ pub fn count_duplicates(records: &[(u32, Record)], accuracy: f32) -> u64 {
         .count() as u64
 }
 
+/// Where each rank's part starts in a variable-count buffer: the running sum of `counts`.
+fn displacements(counts: &[Count]) -> Vec<Count> {
+    counts
+        .iter()
+        .scan(0, |at, &c| {
+            let d = *at;
+            *at += c;
+            Some(d)
+        })
+        .collect()
+}
+
 /// Gathers every rank's `mine` on rank 0 (`MPI_Gatherv`), by rank; `None` on the other ranks.
 fn gather<T: Equivalence + Default + Clone>(
     world: &SimpleCommunicator,
@@ -725,14 +730,7 @@ fn gather<T: Equivalence + Default + Clone>(
     if world.rank() == 0 {
         let mut counts = vec![0 as Count; size];
         root.gather_into_root(&n, &mut counts[..]);
-        let displs: Vec<Count> = counts
-            .iter()
-            .scan(0, |at, &c| {
-                let d = *at;
-                *at += c;
-                Some(d)
-            })
-            .collect();
+        let displs = displacements(&counts);
         let mut all = vec![T::default(); counts.iter().map(|&c| c as usize).sum()];
         {
             let mut partition = PartitionMut::new(&mut all[..], &counts[..], &displs[..]);
