@@ -54,7 +54,7 @@ pub struct RadianceConfig {
     pub resolution: u32,
     /// wfic's light samples per primary hit in the matched runs.
     pub light_samples: u32,
-    /// The accuracies of the sweep (each with `rays / 2`, `rays` and `2 rays`).
+    /// The accuracies of the sweep (each with `rays` times 1/2, 3/4, 1, 3/2 and 2).
     pub sweep_accuracies: Vec<f32>,
     /// The light-sample counts of the image-noise study.
     pub light_sweep: Vec<u32>,
@@ -704,7 +704,7 @@ pub fn compare_scene(
         .expect("measured above");
     let mut best: Option<(Run, RenderSettings)> = None;
     for &sa in &config.sweep_accuracies {
-        for sn in [(n / 2).max(16), n, 2 * n] {
+        for sn in [(n / 2).max(16), (3 * n / 4).max(16), n, 3 * n / 2, 2 * n] {
             for &rmin in &config.sweep_min_radius {
                 let mut s = settings(config, sa, sn, config.light_samples, 0x5eed);
                 s.min_radius_pixels = rmin;

@@ -203,7 +203,9 @@ pub fn direct_irradiance(
     sum / samples.max(1) as f32
 }
 
-/// Light samples at a hemisphere hit next to an emitter ([`LightChoice::near`]); elsewhere one.
+/// Light samples at a hemisphere hit next to an emitter sampled by area ([`LightChoice::near`]:
+/// one of more than [`crate::render::lights::SOLID_ANGLE_MAX`] triangles); elsewhere one.
+/// Emitters of fewer triangles are sampled by solid angle there, and one sample suffices.
 pub const NEAR_HIT_SAMPLES: u32 = 16;
 
 /// A random permutation of `0..len` (Fisher-Yates).
@@ -263,8 +265,8 @@ pub fn sample_irradiance(
                 ];
                 let oy = y + ny * eps;
                 let lights = scene.light_choice(oy, ny);
-                // Next to an emitter one sample's `1 / d^2` varies by more than 4x over it: take
-                // NEAR_HIT_SAMPLES there.
+                // Next to an emitter sampled by area one sample's `1 / d^2` varies by more than
+                // 4x over it: take NEAR_HIT_SAMPLES there.
                 let ed = if lights.near() {
                     direct_irradiance(scene, y, ny, NEAR_HIT_SAMPLES, eps, rng, rays)
                 } else {
