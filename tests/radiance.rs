@@ -26,7 +26,7 @@ fn radiance_and_wfic_render_the_same_cornell_box() {
     let mut config = RadianceConfig::quick(vec!["cornell".into()]);
     config.size = (48, 48);
     config.rays = 64;
-    config.sweep_accuracies = vec![0.15];
+    config.sweep_accuracy_scales = vec![1.0];
     config.sweep_min_radius = vec![6.0];
     config.light_sweep = vec![8];
     let dir = std::env::temp_dir().join(format!("wfic-radiance-{}", std::process::id()));

@@ -585,7 +585,6 @@ pub fn run_compare(command: CompareCommand) -> Result<(), String> {
                     return Err(format!("--accuracy {acc} is not in (0, 2]"));
                 }
                 config.accuracy = acc;
-                config.sweep_accuracies[0] = acc;
             }
             if let Some(r) = a.resolution {
                 if r == 0 {

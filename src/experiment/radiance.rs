@@ -24,6 +24,13 @@
 //! samples, another seed): what a user sees, direct-light noise and Radiance's source
 //! subdivision included. Both are relative RMSE of luminance over the pixels that do not see an
 //! emitter, and the mean relative error over the same pixels.
+//!
+//! The equal-error search sweeps wfic's accuracy at 2, 4/3, 1 and 2/3 times the matched one,
+//! its rays per record at 1/2, 3/4, 1, 3/2 and 2 times, and its lower radius clamp at 6 and 12
+//! pixel footprints, at 2 threads; the cheapest run at or below Radiance's cache error (1 worker)
+//! is rendered again at 1 and at 2 workers. Accuracies above the matched one are in it because
+//! wfic's cache error is mostly its records' own hemisphere noise: fewer records of more rays
+//! each can cost less and err less (`paper-notes.md`, "Radiance side by side").
 
 use super::Machine;
 use crate::cache::Scheme;
@@ -54,8 +61,10 @@ pub struct RadianceConfig {
     pub resolution: u32,
     /// wfic's light samples per primary hit in the matched runs.
     pub light_samples: u32,
-    /// The accuracies of the sweep (each with `rays` times 1/2, 3/4, 1, 3/2 and 2).
-    pub sweep_accuracies: Vec<f32>,
+    /// The accuracies of the sweep as multiples of `accuracy` (each with `rays` times 1/2, 3/4,
+    /// 1, 3/2 and 2). Above 1 as well as below: wfic's cache error is mostly its records' own
+    /// hemisphere noise, so fewer records of more rays can be both cheaper and more accurate.
+    pub sweep_accuracy_scales: Vec<f32>,
     /// The light-sample counts of the image-noise study.
     pub light_sweep: Vec<u32>,
     /// Light samples of the converged reference.
@@ -81,8 +90,8 @@ impl RadianceConfig {
             accuracy: 0.15,
             resolution: 128,
             light_samples: 8,
-            sweep_accuracies: vec![0.15, 0.1, 0.07],
-            sweep_min_radius: vec![6.0, 3.0, 1.5],
+            sweep_accuracy_scales: vec![2.0, 4.0 / 3.0, 1.0, 2.0 / 3.0],
+            sweep_min_radius: vec![6.0, 12.0],
             light_sweep: vec![8, 16, 32, 64, 128],
             converged_light_samples: 256,
             reference_stride: 4,
@@ -96,8 +105,8 @@ impl RadianceConfig {
         Self {
             size: (96, 96),
             rays: 128,
-            sweep_accuracies: vec![0.15, 0.1],
-            sweep_min_radius: vec![6.0, 3.0],
+            sweep_accuracy_scales: vec![4.0 / 3.0, 1.0],
+            sweep_min_radius: vec![6.0, 12.0],
             light_sweep: vec![8, 32],
             converged_light_samples: 128,
             reference_stride: 2,
@@ -703,7 +712,9 @@ pub fn compare_scene(
         .map(|r| r.cache_error.rel_rmse)
         .expect("measured above");
     let mut best: Option<(Run, RenderSettings)> = None;
-    for &sa in &config.sweep_accuracies {
+    for &scale in &config.sweep_accuracy_scales {
+        // Rounded to 1e-3 so the tables read 0.2, not 0.20000002.
+        let sa = (config.accuracy * scale * 1000.0).round() / 1000.0;
         for sn in [(n / 2).max(16), (3 * n / 4).max(16), n, 3 * n / 2, 2 * n] {
             for &rmin in &config.sweep_min_radius {
                 let mut s = settings(config, sa, sn, config.light_samples, 0x5eed);
