@@ -80,7 +80,7 @@ pub struct RenderArgs {
     #[arg(long, default_value_t = 512)]
     pub rays_per_record: u32,
     /// Light samples (shadow rays) per primary hit for direct light.
-    #[arg(long, default_value_t = 8)]
+    #[arg(long, default_value_t = 16)]
     pub light_samples: u32,
     /// Primary rays per pixel (stratified jitter; each hit makes its own cache lookup).
     #[arg(long, default_value_t = 1)]

@@ -83,7 +83,10 @@ pub struct RenderSettings {
     pub accuracy: f32,
     /// Hemisphere rays per irradiance estimate (rounded to `M x N` strata).
     pub rays_per_record: u32,
-    /// Light samples (shadow rays) for the direct term at each primary hit.
+    /// Light samples (shadow rays) for the direct term at each primary hit. The default, 16,
+    /// is the count at which the direct light's noise in the Cornell box falls below
+    /// Radiance's deterministic sampling at its defaults (`paper-notes.md`, "Radiance side by
+    /// side"); 8, the earlier default, left it above on every scene but Sponza.
     pub light_samples: u32,
     /// Primary rays per pixel (stratified jitter, box filter). Each primary hit is shaded on its
     /// own, so each makes its own cache lookup, as in a renderer that antialiases. 1 shoots one
@@ -115,7 +118,7 @@ impl RenderSettings {
             height,
             accuracy: 0.25,
             rays_per_record: 512,
-            light_samples: 8,
+            light_samples: 16,
             pixel_samples: 1,
             min_radius_pixels: 6.0,
             max_radius_pixels: 120.0,
