@@ -14,8 +14,9 @@ wfic=./target/release/wfic
 # The five scenes at 320 x 320, wf, 2 threads (README and paper-notes images; scene table).
 for s in cornell desk conference office sponza; do
     $wfic render --scene $s --scheme wf --threads 2 --width 320 --height 320 --quiet \
-        --out docs/img/$s.png --hdr $img/$s-320.pfm --records $img/$s-320-records.png \
-        --stats $out/$s-320.json
+        --out $img/$s-320.png --records $img/$s-320-records.png --stats $out/$s-320.json
+    # The PNG alone goes to docs/img/ (the PFM and HDR beside it are megabytes).
+    cp $img/$s-320.png docs/img/$s.png
 done
 cp $img/cornell-320-records.png docs/img/cornell-records.png
 
