@@ -682,6 +682,64 @@ mod tests {
     }
 
     #[test]
+    fn a_triangle_too_small_for_arvo_is_sampled_by_area_with_its_share_of_the_solid_angle() {
+        // One emitter: a unit triangle, and a sliver of 1e-6 m^2 touching its corner (same
+        // radiance). From x, close under the big one, the emitter is near and sampled by solid
+        // angle, but the sliver subtends less than ARVO_MIN: a sample that chooses it lands
+        // uniformly in its area, with density p_tri / area, p_tri its share of the solid angle.
+        let v = Vec3::new;
+        let lights = Lights::new(vec![
+            tri(v(0.0, 1.0, 0.0), v(1.0, 1.0, 0.0), v(1.0, 1.0, 1.0), 1.0),
+            tri(
+                v(1.0, 1.0, 0.0),
+                v(1.002, 1.0, 0.0),
+                v(1.002, 1.0, 0.001),
+                1.0,
+            ),
+        ]);
+        assert_eq!(lights.emitter_count(), 1);
+        let x = Vec3::new(0.6, 0.9, 0.3);
+        let c = lights.choice(x, Vec3::Y);
+        assert!(c.by_solid_angle());
+        let rel = |p: Vec3| (p - x).as_dvec3().to_array();
+        let omega =
+            |l: &Light| solid_angle(rel(l.corners[0]), rel(l.corners[1]), rel(l.corners[2]));
+        let tris = lights.triangles();
+        let total: f64 = tris.iter().map(omega).sum();
+        let (k, sliver) = tris
+            .iter()
+            .enumerate()
+            .min_by(|a, b| a.1.area.total_cmp(&b.1.area))
+            .unwrap();
+        let omega_s = omega(sliver);
+        assert!(omega_s > 0.0 && omega_s < ARVO_MIN, "{omega_s} sr");
+        // The triangle choice walks the emitter's triangles in order: the sliver's interval is at
+        // the start or at the end of [0, 1).
+        let p_s = omega_s / total;
+        let u0 = if k == 0 { 0.5 * p_s } else { 1.0 - 0.5 * p_s } as f32;
+        for i in 0..16 {
+            for j in 0..16 {
+                let u = [u0, (i as f32 + 0.5) / 16.0, (j as f32 + 0.5) / 16.0];
+                let s = lights.sample(&c, u).expect("the emitter lights x");
+                assert!(
+                    s.point.x >= 1.0 - 1e-6
+                        && s.point.x <= 1.002 + 1e-6
+                        && s.point.z <= 0.001 + 1e-6,
+                    "not on the sliver: {:?}",
+                    s.point
+                );
+                let expected = p_s / f64::from(sliver.area);
+                let rel_err = (f64::from(s.pdf_area) / expected - 1.0).abs();
+                assert!(
+                    rel_err < 1e-3,
+                    "density {} per m^2 on the sliver, expected {expected}",
+                    s.pdf_area
+                );
+            }
+        }
+    }
+
+    #[test]
     fn samples_land_on_the_chosen_triangle_with_its_density() {
         let lights = three();
         // Far enough below that no emitter is near (each is sampled by area).
