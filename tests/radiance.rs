@@ -26,7 +26,8 @@ fn radiance_and_wfic_render_the_same_cornell_box() {
     let mut config = RadianceConfig::quick(vec!["cornell".into()]);
     config.size = (48, 48);
     config.rays = 64;
-    config.sweep_accuracy_scales = vec![1.0];
+    // One scale above 1: the sweep's accuracies are the matched one's multiples (0.15 x 4/3).
+    config.sweep_accuracy_scales = vec![4.0 / 3.0];
     config.sweep_min_radius = vec![6.0];
     config.light_sweep = vec![8];
     let dir = std::env::temp_dir().join(format!("wfic-radiance-{}", std::process::id()));
@@ -56,6 +57,16 @@ fn radiance_and_wfic_render_the_same_cornell_box() {
             );
         }
     }
+    let swept: Vec<f32> = r
+        .runs
+        .iter()
+        .filter(|run| run.role == "sweep")
+        .map(|run| run.accuracy)
+        .collect();
+    assert!(
+        !swept.is_empty() && swept.iter().all(|&a| a == 0.2),
+        "sweep accuracies {swept:?}, expected 0.2 (0.15 x 4/3, rounded)"
+    );
     assert!(dir.join("cornell-side-by-side.png").is_file());
     assert!(!dir.join("work-cornell").exists(), "scratch files left");
     std::fs::remove_dir_all(&dir).ok();
