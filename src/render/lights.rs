@@ -122,6 +122,18 @@ pub struct LightChoice {
 pub const NEAR: f32 = 2.0;
 
 impl LightChoice {
+    /// No emitter can light the point (what [`Lights::choice_into`] overwrites).
+    pub const fn empty() -> Self {
+        Self {
+            cdf: [0.0; MAX_WEIGHED],
+            len: 0,
+            by_power: false,
+            near: false,
+            by_solid_angle: 0,
+            x: Vec3::ZERO,
+        }
+    }
+
     /// True when an emitter that can light the point is near it ([`NEAR`]) and too large to be
     /// sampled by solid angle ([`SOLID_ANGLE_MAX`]): single light samples are noisy there, and
     /// the integrator takes more.
@@ -304,16 +316,22 @@ impl Lights {
 
     /// The emitter probabilities at `x` with unit facing normal `n`.
     pub fn choice(&self, x: Vec3, n: Vec3) -> LightChoice {
-        let mut choice = LightChoice {
-            cdf: [0.0; MAX_WEIGHED],
-            len: 0,
-            by_power: self.emitters.len() > MAX_WEIGHED,
-            near: false,
-            by_solid_angle: 0,
-            x,
-        };
+        let mut choice = LightChoice::empty();
+        self.choice_into(x, n, &mut choice);
+        choice
+    }
+
+    /// [`Lights::choice`] written into `choice`, whose earlier contents are overwritten: a caller
+    /// that chooses at many points (one per hemisphere hit) keeps one and neither clears nor
+    /// copies its 64-entry table each time.
+    pub fn choice_into(&self, x: Vec3, n: Vec3, choice: &mut LightChoice) {
+        choice.len = 0;
+        choice.by_power = self.emitters.len() > MAX_WEIGHED;
+        choice.near = false;
+        choice.by_solid_angle = 0;
+        choice.x = x;
         if choice.by_power {
-            return choice;
+            return;
         }
         let mut total = 0.0f32;
         for (k, e) in self.emitters.iter().enumerate() {
@@ -353,7 +371,6 @@ impl Lights {
             }
             choice.cdf[choice.len - 1] = 1.0;
         }
-        choice
     }
 
     /// The light point for the uniform numbers `u` in `[0, 1)^3` under `choice`: `u[0]` chooses

@@ -382,6 +382,12 @@ impl Scene {
         self.lights.choice(x, n)
     }
 
+    /// [`Scene::light_choice`] written into `choice` ([`Lights::choice_into`]).
+    #[inline]
+    pub fn light_choice_into(&self, x: Vec3, n: Vec3, choice: &mut LightChoice) {
+        self.lights.choice_into(x, n, choice)
+    }
+
     /// The light point for the uniform numbers `u` in `[0, 1)^3` under `choice`
     /// ([`Lights::sample`]); `None` when no emitter can light the point.
     #[inline]
