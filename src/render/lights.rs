@@ -167,19 +167,23 @@ fn solid_angle(a: [f64; 3], b: [f64; 3], c: [f64; 3]) -> f64 {
     2.0 * num.atan2(den)
 }
 
-/// A direction uniform in the spherical triangle of the unit vectors `a b c` for `u1, u2` in
-/// `[0, 1)` (Arvo 1995): `u1` chooses the sub-triangle `a b c'` of area `u1` times the whole,
-/// `u2` the point on the arc from `b` to `c'`, its `1 - cos` from `b` uniform. `None` when the
-/// construction fails in floating point.
-fn arvo(a: glam::DVec3, b: glam::DVec3, c: glam::DVec3, u1: f64, u2: f64) -> Option<glam::DVec3> {
-    use std::f64::consts::PI;
-    let angle = |p: glam::DVec3, q: glam::DVec3, r: glam::DVec3| {
-        // The angle at p between the great circles to q and to r.
-        let (n1, n2) = (p.cross(q).normalize(), p.cross(r).normalize());
-        n1.dot(n2).clamp(-1.0, 1.0).acos()
-    };
-    let (alpha, beta, gamma) = (angle(a, b, c), angle(b, c, a), angle(c, a, b));
-    let area = alpha + beta + gamma - PI;
+/// A direction uniform in the spherical triangle of the unit vectors `a b c` of solid angle
+/// `area` for `u1, u2` in `[0, 1)` (Arvo 1995): `u1` chooses the sub-triangle `a b c'` of area
+/// `u1` times the whole, `u2` the point on the arc from `b` to `c'`, its `1 - cos` from `b`
+/// uniform. `None` when the construction fails in floating point. The area is the caller's
+/// [`solid_angle`], which it has for the choice of triangle anyway: Arvo's own `alpha + beta +
+/// gamma - pi` would cost two more arc cosines and cancels where the triangle is small.
+fn arvo(
+    a: glam::DVec3,
+    b: glam::DVec3,
+    c: glam::DVec3,
+    area: f64,
+    u1: f64,
+    u2: f64,
+) -> Option<glam::DVec3> {
+    // The angle at a between the great circles to b and to c.
+    let (n1, n2) = (a.cross(b).normalize(), a.cross(c).normalize());
+    let alpha = n1.dot(n2).clamp(-1.0, 1.0).acos();
     let cos_c = a.dot(b);
     let (sin_alpha, cos_alpha) = alpha.sin_cos();
     let sub = u1 * area;
@@ -465,7 +469,7 @@ impl Lights {
         }
         let xd = x.as_dvec3();
         let [a, b, c] = l.corners.map(|p| (p.as_dvec3() - xd).normalize());
-        let Some(w) = arvo(a, b, c, f64::from(u[1]), f64::from(u[2])) else {
+        let Some(w) = arvo(a, b, c, omega[t], f64::from(u[1]), f64::from(u[2])) else {
             return Some(None);
         };
         // Where the direction meets the triangle's plane.
