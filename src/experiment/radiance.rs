@@ -514,6 +514,27 @@ impl References<'_> {
             image_error: image_error(img, self.converged, self.mask),
         }
     }
+
+    /// A wfic frame of `scene` at settings `s` on `workers` threads, measured as a row.
+    fn wfic(
+        &self,
+        scene: &Scene,
+        role: &'static str,
+        s: &RenderSettings,
+        workers: usize,
+    ) -> Result<Run, String> {
+        let f = wfic_frame(scene, s, workers)?;
+        Ok(self.run(
+            "wfic",
+            role,
+            workers,
+            Some(s),
+            (s.accuracy, s.rays_per_record),
+            f.stats.seconds,
+            f.stats.cache_records,
+            &f.image,
+        ))
+    }
 }
 
 /// Compares one scene (what [`run`] does per scene), its scratch files under
@@ -727,17 +748,7 @@ pub fn compare_scene(
             for &rmin in &config.sweep_min_radius {
                 let mut s = settings(config, sa, sn, config.light_samples, 0x5eed);
                 s.min_radius_pixels = rmin;
-                let f = wfic_frame(scene, &s, 2)?;
-                let run = wfic_refs.run(
-                    "wfic",
-                    "sweep",
-                    2,
-                    Some(&s),
-                    (sa, sn),
-                    f.stats.seconds,
-                    f.stats.cache_records,
-                    &f.image,
-                );
+                let run = wfic_refs.wfic(scene, "sweep", &s, 2)?;
                 say(
                     &name,
                     &format!(
@@ -786,17 +797,7 @@ pub fn compare_scene(
                     break;
                 }
             }
-            let f = wfic_frame(scene, st, workers)?;
-            let run = wfic_refs.run(
-                "wfic",
-                "pick-tried",
-                workers,
-                Some(st),
-                (st.accuracy, st.rays_per_record),
-                f.stats.seconds,
-                f.stats.cache_records,
-                &f.image,
-            );
+            let run = wfic_refs.wfic(scene, "pick-tried", st, workers)?;
             say(
                 &name,
                 &format!(
@@ -853,19 +854,7 @@ pub fn compare_scene(
         for (w, frame) in frames.iter_mut().enumerate() {
             let mut run = match frame.take() {
                 Some(run) => run,
-                None => {
-                    let f = wfic_frame(scene, st, w + 1)?;
-                    wfic_refs.run(
-                        "wfic",
-                        role,
-                        w + 1,
-                        Some(st),
-                        (st.accuracy, st.rays_per_record),
-                        f.stats.seconds,
-                        f.stats.cache_records,
-                        &f.image,
-                    )
-                }
+                None => wfic_refs.wfic(scene, role, st, w + 1)?,
             };
             run.role = role;
             runs.push(run);
@@ -878,17 +867,7 @@ pub fn compare_scene(
         let mut s = chosen.clone();
         s.light_samples = l;
         for workers in [1, 2] {
-            let f = wfic_frame(scene, &s, workers)?;
-            let run = wfic_refs.run(
-                "wfic",
-                "light-samples",
-                workers,
-                Some(&s),
-                (s.accuracy, s.rays_per_record),
-                f.stats.seconds,
-                f.stats.cache_records,
-                &f.image,
-            );
+            let run = wfic_refs.wfic(scene, "light-samples", &s, workers)?;
             if workers == 2 {
                 say(
                     &name,
