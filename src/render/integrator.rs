@@ -578,6 +578,24 @@ mod tests {
     use crate::render::scenes;
 
     #[test]
+    fn the_shuffle_reaches_every_order_of_three_evenly() {
+        // Fisher-Yates draws j in 0..=k; drawing in 0..k (Sattolo's cycles) never leaves an item
+        // in place and reaches 2 of the 6 orders.
+        let mut counts = std::collections::HashMap::new();
+        let mut rng = Rng::new(7);
+        for _ in 0..6000 {
+            let mut v = [0u8, 1, 2];
+            shuffle(&mut v, &mut rng);
+            *counts.entry(v).or_insert(0u32) += 1;
+        }
+        assert_eq!(counts.len(), 6, "orders reached: {counts:?}");
+        assert!(
+            counts.values().all(|&c| (850..1150).contains(&c)),
+            "{counts:?}"
+        );
+    }
+
+    #[test]
     fn the_short_series_matches_libm_over_half_a_sector() {
         // 6 sectors or more turn by at most pi / 6; the series must agree with libm to f32
         // rounding there (the last coefficient a factor 10 off errs by 1e-6 at the ends).
