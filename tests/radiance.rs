@@ -30,6 +30,8 @@ fn radiance_and_wfic_render_the_same_cornell_box() {
     config.sweep_accuracy_scales = vec![4.0 / 3.0];
     config.sweep_min_radius = vec![6.0];
     config.light_sweep = vec![8];
+    // Two renders a row: Radiance twice on fresh ambient files, wfic on two seeds.
+    config.repeats = 2;
     let dir = std::env::temp_dir().join(format!("wfic-radiance-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let scene = scenes::cornell().unwrap();
@@ -55,6 +57,26 @@ fn radiance_and_wfic_render_the_same_cornell_box() {
                 "{renderer} x{workers}: cache error {:?}",
                 run.cache_error
             );
+            // The row is both renders: its mean error lies within their range, and two
+            // wfic seeds (different records) never err exactly alike.
+            let (lo, hi) = run.cache_error_range;
+            assert_eq!(run.repeats, 2, "{renderer} x{workers}");
+            assert!(
+                lo <= run.cache_error.rel_rmse && run.cache_error.rel_rmse <= hi,
+                "{renderer} x{workers}: {lo} <= {} <= {hi}",
+                run.cache_error.rel_rmse
+            );
+            if renderer == "wfic" {
+                assert!(lo < hi, "wfic x{workers}: both seeds erred {lo}");
+                // Each seed is measured against its own seed's brute-force image, so the direct
+                // light cancels in both: measured against the first seed's, the second frame
+                // errs about 1.45x the first (its direct-light noise counted), here 1.05x.
+                assert!(
+                    hi < 1.25 * lo,
+                    "wfic x{workers}: the seeds' errors {lo} and {hi} differ as if one were \
+                     measured against another seed's reference"
+                );
+            }
         }
     }
     let swept: Vec<f32> = r

@@ -542,6 +542,10 @@ pub struct RadianceArgs {
     /// Keep the exported scene, rays and ambient files (DIR/work-SCENE/).
     #[arg(long)]
     pub keep_work: bool,
+    /// Renders of every measured setting, each row their median time and mean error (Radiance:
+    /// fresh ambient files; wfic: seeds). Default 3, quick 1.
+    #[arg(long)]
+    pub repeats: Option<u32>,
 }
 
 /// Runs `wfic compare ...`.
@@ -593,6 +597,12 @@ pub fn run_compare(command: CompareCommand) -> Result<(), String> {
                 config.resolution = r;
             }
             config.keep_work = a.keep_work;
+            if let Some(r) = a.repeats {
+                if r == 0 {
+                    return Err("--repeats must be at least 1".to_owned());
+                }
+                config.repeats = r;
+            }
             let command: Vec<String> = std::env::args().collect();
             super::radiance::run(&config, &a.out_dir, &command.join(" "))
         }

@@ -34,6 +34,14 @@
 //! 0.1x. Accuracies above the matched one are in it because wfic's cache error is mostly its
 //! records' own hemisphere noise: fewer records of more rays each can cost less and err less
 //! (`paper-notes.md`, "Radiance side by side").
+//!
+//! Repeats. One frame's cache error moves by about a tenth between wfic's seeds and its time by
+//! up to a quarter between runs, as much as the margins the goal is decided by. So every measured
+//! setting is rendered [`RadianceConfig::repeats`] times (3 by default, 1 in the smoke run): wfic
+//! with as many seeds, each against that seed's own brute-force image, Radiance with a fresh
+//! ambient file each time (one `rtrace` process samples the same way every run, two split the
+//! pixels differently each run). A row is the median of their times and records and the mean of
+//! their errors; the equal-error table also gives the range of the cache errors.
 
 use super::Machine;
 use crate::cache::Scheme;
@@ -80,6 +88,12 @@ pub struct RadianceConfig {
     pub reference_stride: u32,
     /// Keep the exported scene, rays and ambient files (`DIR/work-NAME/`).
     pub keep_work: bool,
+    /// Renders of every measured setting: Radiance runs again with a fresh ambient file (its
+    /// sampling differs from run to run), wfic with another seed against that seed's own
+    /// brute-force image. A row is the median of their times and the mean of their errors: one
+    /// frame's cache error moves by about a tenth between seeds, and its time by up to a quarter,
+    /// which is as much as the margins the goal is decided by.
+    pub repeats: u32,
 }
 
 impl RadianceConfig {
@@ -99,6 +113,7 @@ impl RadianceConfig {
             converged_light_samples: 256,
             reference_stride: 4,
             keep_work: false,
+            repeats: 3,
         }
     }
 
@@ -113,6 +128,7 @@ impl RadianceConfig {
             light_sweep: vec![8, 32],
             converged_light_samples: 128,
             reference_stride: 2,
+            repeats: 1,
             ..Self::full(scenes)
         }
     }
@@ -397,6 +413,49 @@ pub struct Run {
     pub cache_error: ImageError,
     /// Against the converged reference.
     pub image_error: ImageError,
+    /// Renders behind the row ([`RadianceConfig::repeats`]): `seconds` is their median,
+    /// `records` their median, the errors their mean.
+    pub repeats: u32,
+    /// The smallest and largest cache error (relative RMSE) among them.
+    pub cache_error_range: (f64, f64),
+}
+
+impl Run {
+    /// One row from the renders of one setting: the median time and record count, the mean
+    /// errors, the range of the cache error.
+    pub fn combine(runs: Vec<Run>) -> Run {
+        assert!(!runs.is_empty(), "a row needs a render");
+        let median = |mut v: Vec<f64>| {
+            v.sort_by(f64::total_cmp);
+            let k = v.len();
+            if k % 2 == 1 {
+                v[k / 2]
+            } else {
+                0.5 * (v[k / 2 - 1] + v[k / 2])
+            }
+        };
+        let k = runs.len() as f64;
+        let mean = |f: &dyn Fn(&Run) -> f64| runs.iter().map(f).sum::<f64>() / k;
+        let mut row = runs[0].clone();
+        row.seconds = median(runs.iter().map(|r| r.seconds).collect());
+        row.records = median(runs.iter().map(|r| r.records as f64).collect()).round() as usize;
+        row.cache_error = ImageError {
+            rel_rmse: mean(&|r| r.cache_error.rel_rmse),
+            mean_rel: mean(&|r| r.cache_error.mean_rel),
+        };
+        row.image_error = ImageError {
+            rel_rmse: mean(&|r| r.image_error.rel_rmse),
+            mean_rel: mean(&|r| r.image_error.mean_rel),
+        };
+        row.cache_error_range = runs.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), r| {
+            (
+                lo.min(r.cache_error.rel_rmse),
+                hi.max(r.cache_error.rel_rmse),
+            )
+        });
+        row.repeats = runs.iter().map(|r| r.repeats).sum();
+        row
+    }
 }
 
 /// One scene's comparison.
@@ -479,11 +538,18 @@ fn wfic_frame(scene: &Scene, s: &RenderSettings, threads: usize) -> Result<Frame
     Ok(render_with_scheme(Scheme::Wf, scene, &scene.camera(), s, config, threads).0)
 }
 
-/// The images a comparison measures against.
+/// The images a comparison measures against: the renderer's own brute-force image (wfic: one
+/// per seed, repeat `i` against `own[i]`; Radiance: one for every repeat), the converged one, the
+/// pixels measured.
 struct References<'a> {
-    own: &'a Image,
+    own: &'a [Image],
     converged: &'a Image,
     mask: &'a [bool],
+}
+
+/// The seed of wfic's repeat `i`: the matched seed first.
+fn seed_of(i: u32) -> u64 {
+    0x5eed + 0x1_0000 * u64::from(i)
 }
 
 impl References<'_> {
@@ -499,7 +565,9 @@ impl References<'_> {
         seconds: f64,
         records: usize,
         img: &Image,
+        repeat: usize,
     ) -> Run {
+        let own = &self.own[repeat.min(self.own.len() - 1)];
         Run {
             renderer,
             role,
@@ -510,12 +578,46 @@ impl References<'_> {
             min_radius_pixels: s.map_or(0.0, |s| s.min_radius_pixels),
             seconds,
             records,
-            cache_error: image_error(img, self.own, self.mask),
+            cache_error: image_error(img, own, self.mask),
             image_error: image_error(img, self.converged, self.mask),
+            repeats: 1,
+            cache_error_range: (0.0, 0.0),
         }
     }
 
-    /// A wfic frame of `scene` at settings `s` on `workers` threads, measured as a row.
+    /// wfic frames of `scene` at settings `s` on `workers` threads, one per own reference (each
+    /// with that reference's seed), measured as one row ([`Run::combine`]); and the first frame's
+    /// image.
+    fn wfic_frames(
+        &self,
+        scene: &Scene,
+        role: &'static str,
+        s: &RenderSettings,
+        workers: usize,
+    ) -> Result<(Run, Image), String> {
+        let mut runs = Vec::new();
+        let mut first = None;
+        for i in 0..self.own.len() {
+            let mut s = s.clone();
+            s.seed = seed_of(i as u32);
+            let f = wfic_frame(scene, &s, workers)?;
+            runs.push(self.run(
+                "wfic",
+                role,
+                workers,
+                Some(&s),
+                (s.accuracy, s.rays_per_record),
+                f.stats.seconds,
+                f.stats.cache_records,
+                &f.image,
+                i,
+            ));
+            first.get_or_insert(f.image);
+        }
+        Ok((Run::combine(runs), first.expect("at least one repeat")))
+    }
+
+    /// [`Self::wfic_frames`] without the image.
     fn wfic(
         &self,
         scene: &Scene,
@@ -523,17 +625,7 @@ impl References<'_> {
         s: &RenderSettings,
         workers: usize,
     ) -> Result<Run, String> {
-        let f = wfic_frame(scene, s, workers)?;
-        Ok(self.run(
-            "wfic",
-            role,
-            workers,
-            Some(s),
-            (s.accuracy, s.rays_per_record),
-            f.stats.seconds,
-            f.stats.cache_records,
-            &f.image,
-        ))
+        Ok(self.wfic_frames(scene, role, s, workers)?.0)
     }
 }
 
@@ -620,16 +712,29 @@ pub fn compare_scene(
 
     // wfic's references on the same grid: brute force with the matched light samples (cache
     // error), and the converged one (image error) with more light samples and another seed.
+    let repeats = config.repeats.max(1);
     say(
         &name,
-        &format!("wfic reference: none, {} rays, 2 threads", 4 * n),
+        &format!(
+            "wfic reference: none, {} rays, 2 threads, {repeats} seed(s)",
+            4 * n
+        ),
     );
-    let ref_settings = settings(config, a, 4 * n, config.light_samples, 0x5eed);
+    let ref_settings = settings(config, a, 4 * n, config.light_samples, seed_of(0));
     let rc = ref_settings
         .cache_config(scene)
         .map_err(|e| e.to_string())?;
-    let (wfic_ref, wfic_ref_seconds) =
-        render_reference_grid(scene, &camera, &ref_settings, rc, 2, k);
+    let mut wfic_refs_own = Vec::new();
+    let mut wfic_ref_seconds = Vec::new();
+    for i in 0..repeats {
+        let mut rs = ref_settings.clone();
+        rs.seed = seed_of(i);
+        let (img, secs) = render_reference_grid(scene, &camera, &rs, rc, 2, k);
+        wfic_refs_own.push(img);
+        wfic_ref_seconds.push(secs);
+    }
+    let wfic_ref = &wfic_refs_own[0];
+    let wfic_ref_seconds = wfic_ref_seconds[0];
     say(
         &name,
         &format!(
@@ -644,12 +749,12 @@ pub fn compare_scene(
     let mean_ratio = masked_mean(&radiance_ref, &mask) / masked_mean(&converged, &mask);
 
     let radiance_refs = References {
-        own: &radiance_ref,
+        own: std::slice::from_ref(&radiance_ref),
         converged: &converged,
         mask: &mask,
     };
     let wfic_refs = References {
-        own: &wfic_ref,
+        own: &wfic_refs_own,
         converged: &converged,
         mask: &mask,
     };
@@ -663,6 +768,7 @@ pub fn compare_scene(
             ref_seconds,
             0,
             &radiance_ref,
+            0,
         ),
         wfic_refs.run(
             "wfic",
@@ -672,61 +778,61 @@ pub fn compare_scene(
             (0.0, 4 * n),
             wfic_ref_seconds,
             0,
-            &wfic_ref,
+            wfic_ref,
+            0,
         ),
     ];
 
-    // Matched settings, 1 and 2 workers each.
+    // Matched settings, 1 and 2 workers each, `repeats` renders of each.
     let mut radiance_images = Vec::new();
     for workers in [1, 2] {
-        let amb = work.join(format!("amb-{workers}.amb"));
-        std::fs::remove_file(&amb).ok();
-        let out = work.join(format!("cached-{workers}.f32"));
-        say(
-            &name,
-            &format!(
-                "radiance: -aa {a} -ad {n} -ar {}, {workers} process(es)",
-                config.resolution
-            ),
-        );
-        let seconds = run_timed(
-            rtrace(&cache_args(a, n), workers, Some(&amb)),
-            Some(&rays),
-            &out,
-            "rtrace",
-        )?;
-        let img = read_floats(&out, config.size, 1)?;
-        let records = ambient_records(bin, &amb)?;
-        runs.push(radiance_refs.run(
-            "radiance",
-            "matched",
-            workers,
-            None,
-            (a, n),
-            seconds,
-            records,
-            &img,
-        ));
-        radiance_images.push(img);
+        let mut rows = Vec::new();
+        for i in 0..repeats {
+            let amb = work.join(format!("amb-{workers}-{i}.amb"));
+            std::fs::remove_file(&amb).ok();
+            let out = work.join(format!("cached-{workers}.f32"));
+            say(
+                &name,
+                &format!(
+                    "radiance: -aa {a} -ad {n} -ar {}, {workers} process(es), run {} of {repeats}",
+                    config.resolution,
+                    i + 1
+                ),
+            );
+            let seconds = run_timed(
+                rtrace(&cache_args(a, n), workers, Some(&amb)),
+                Some(&rays),
+                &out,
+                "rtrace",
+            )?;
+            let img = read_floats(&out, config.size, 1)?;
+            let records = ambient_records(bin, &amb)?;
+            rows.push(radiance_refs.run(
+                "radiance",
+                "matched",
+                workers,
+                None,
+                (a, n),
+                seconds,
+                records,
+                &img,
+                0,
+            ));
+            if i == 0 {
+                radiance_images.push(img);
+            }
+        }
+        runs.push(Run::combine(rows));
     }
     let mut wfic_images = Vec::new();
     for workers in [1, 2] {
         say(
             &name,
-            &format!("wfic: wf, a {a}, {n} rays, {workers} thread(s)"),
+            &format!("wfic: wf, a {a}, {n} rays, {workers} thread(s), {repeats} seed(s)"),
         );
-        let f = wfic_frame(scene, &base, workers)?;
-        runs.push(wfic_refs.run(
-            "wfic",
-            "matched",
-            workers,
-            Some(&base),
-            (a, n),
-            f.stats.seconds,
-            f.stats.cache_records,
-            &f.image,
-        ));
-        wfic_images.push(f.image);
+        let (run, img) = wfic_refs.wfic_frames(scene, "matched", &base, workers)?;
+        runs.push(run);
+        wfic_images.push(img);
     }
 
     // The sweep: wfic settings against its reference (whose rays stay 4N).
@@ -887,7 +993,7 @@ pub fn compare_scene(
         &radiance_images[0],
         &wfic_images[0],
         &radiance_ref,
-        &wfic_ref,
+        wfic_ref,
         &mask,
         k,
     )?;
@@ -1050,6 +1156,20 @@ fn write_side_by_side(
         .map_err(|e| format!("{}: {e}", path.display()))
 }
 
+/// A row's mean cache error, with the range of its renders when there were several.
+fn with_range(run: &Run) -> String {
+    if run.repeats > 1 {
+        format!(
+            "{} ({}–{})",
+            pct(run.cache_error.rel_rmse),
+            pct(run.cache_error_range.0),
+            pct(run.cache_error_range.1)
+        )
+    } else {
+        pct(run.cache_error.rel_rmse)
+    }
+}
+
 fn pct(x: f64) -> String {
     format!("{:.2}%", 100.0 * x)
 }
@@ -1084,7 +1204,9 @@ fn markdown(
          relative RMSE of luminance over the ones that do not see an emitter (mean relative error \
          in brackets, over the pixels brighter than 1% of the mean). Times are wall-clock seconds \
          of the frame (Radiance: the `rtrace` process, loading its octree included; the load \
-         alone is listed below).\n",
+         alone is listed below). Every row but the references is {} render(s) of its setting \
+         (Radiance: runs with a fresh ambient file each; wfic: seeds, each against its own seed's \
+         brute-force image): the median time and record count, the mean errors.\n",
         config.accuracy,
         config.resolution,
         4 * n,
@@ -1092,7 +1214,8 @@ fn markdown(
         config.light_samples,
         4 * n,
         4 * n,
-        config.converged_light_samples
+        config.converged_light_samples,
+        config.repeats.max(1)
     );
     let _ = writeln!(
         s,
@@ -1149,15 +1272,17 @@ fn markdown(
     let _ = writeln!(
         s,
         "Each worker count's wfic setting is the cheapest swept one (2 threads) at or below \
-         Radiance's cache error at that worker count. The goal holds when the frame rendered \
-         again at that setting errs at or below Radiance (else `NO: error above`) and takes at \
-         most 0.1x its time. A swept setting whose frame at that worker count erred above is \
+         Radiance's cache error at that worker count. The goal holds when the frames rendered \
+         again at that setting err at or below Radiance (else `NO: error above`) and take at \
+         most 0.1x its time. A swept setting whose frames at that worker count erred above is \
          passed over for the next cheapest (up to 4 tries; `radiance.csv` lists them as \
-         `pick-tried`).\n"
+         `pick-tried`). With {} render(s) a row, errors are means (the range of the renders in \
+         brackets) and times medians.\n",
+        config.repeats.max(1)
     );
     let _ = writeln!(
         s,
-        "| scene | workers | radiance s | radiance cache error | wfic setting | wfic s | wfic cache error | time ratio wfic/radiance | goal <= 0.1 | extra records at 2 (wfic) | goal <= 2% |"
+        "| scene | workers | radiance s | radiance cache error (range) | wfic setting | wfic s | wfic cache error (range) | time ratio wfic/radiance | goal <= 0.1 | extra records at 2 (wfic) | goal <= 2% |"
     );
     let _ = writeln!(s, "|---|---:|---:|---:|---|---:|---:|---:|---|---:|---|");
     for r in results {
@@ -1197,14 +1322,15 @@ fn markdown(
             };
             let _ = writeln!(
                 s,
-                "| {} | {workers} | {:.3} | {} | {role}: a {} N {} | {:.3} | {} | {:.4} | {} | {} | {} |",
+                "| {} | {workers} | {:.3} | {} | {role}: a {} N {} r_min {} px | {:.3} | {} | {:.4} | {} | {} | {} |",
                 r.scene,
                 rad.seconds,
-                pct(rad.cache_error.rel_rmse),
+                with_range(rad),
                 wf.accuracy,
                 wf.rays,
+                wf.min_radius_pixels,
                 wf.seconds,
-                pct(wf.cache_error.rel_rmse),
+                with_range(wf),
                 ratio,
                 speed_goal(role, wf, rad),
                 pct(extra),
@@ -1322,13 +1448,13 @@ fn markdown(
 fn csv(results: &[SceneComparison]) -> String {
     let mut s = String::from(
         "scene,triangles,source,renderer,role,workers,accuracy,rays,light_samples,min_radius_pixels,seconds,records,\
-         cache_rel_rmse,cache_mean_rel,image_rel_rmse,image_mean_rel\n",
+         cache_rel_rmse,cache_mean_rel,image_rel_rmse,image_mean_rel,repeats,cache_rel_rmse_min,cache_rel_rmse_max\n",
     );
     for r in results {
         for run in &r.runs {
             let _ = writeln!(
                 s,
-                "{},{},{},{},{},{},{},{},{},{},{:.4},{},{:.6},{:.6},{:.6},{:.6}",
+                "{},{},{},{},{},{},{},{},{},{},{:.4},{},{:.6},{:.6},{:.6},{:.6},{},{:.6},{:.6}",
                 r.scene,
                 r.triangles,
                 r.source,
@@ -1344,7 +1470,10 @@ fn csv(results: &[SceneComparison]) -> String {
                 run.cache_error.rel_rmse,
                 run.cache_error.mean_rel,
                 run.image_error.rel_rmse,
-                run.image_error.mean_rel
+                run.image_error.mean_rel,
+                run.repeats,
+                run.cache_error_range.0,
+                run.cache_error_range.1
             );
         }
     }
@@ -1375,6 +1504,8 @@ mod tests {
                 rel_rmse: error,
                 mean_rel: error,
             },
+            repeats: 1,
+            cache_error_range: (error, error),
         };
         let rad = run(10.0, 0.02);
         assert_eq!(speed_goal("equal-error", &run(1.0, 0.02), &rad), "yes");
@@ -1385,6 +1516,48 @@ mod tests {
             "NO: error above"
         );
         assert_eq!(speed_goal("most-accurate", &run(0.5, 0.01), &rad), "NO");
+    }
+
+    #[test]
+    fn a_row_is_the_median_time_and_the_mean_error_of_its_renders() {
+        let run = |seconds: f64, error: f64, records: usize| Run {
+            renderer: "wfic",
+            role: "sweep",
+            workers: 2,
+            accuracy: 0.15,
+            rays: 512,
+            light_samples: 8,
+            min_radius_pixels: 6.0,
+            seconds,
+            records,
+            cache_error: ImageError {
+                rel_rmse: error,
+                mean_rel: 2.0 * error,
+            },
+            image_error: ImageError {
+                rel_rmse: 3.0 * error,
+                mean_rel: 4.0 * error,
+            },
+            repeats: 1,
+            cache_error_range: (0.0, 0.0),
+        };
+        // A slow outlier moves the median not at all; the errors are averaged.
+        let row = Run::combine(vec![
+            run(1.0, 0.010, 100),
+            run(9.0, 0.013, 104),
+            run(1.2, 0.016, 101),
+        ]);
+        assert_eq!(row.seconds, 1.2);
+        assert_eq!(row.records, 101);
+        assert!((row.cache_error.rel_rmse - 0.013).abs() < 1e-12);
+        assert!((row.cache_error.mean_rel - 0.026).abs() < 1e-12);
+        assert!((row.image_error.rel_rmse - 0.039).abs() < 1e-12);
+        assert!((row.image_error.mean_rel - 0.052).abs() < 1e-12);
+        assert_eq!(row.cache_error_range, (0.010, 0.016));
+        assert_eq!(row.repeats, 3);
+        // An even count takes the middle two.
+        let row = Run::combine(vec![run(1.0, 0.01, 10), run(2.0, 0.01, 20)]);
+        assert_eq!((row.seconds, row.records), (1.5, 15));
     }
 
     #[test]
