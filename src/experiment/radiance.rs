@@ -39,8 +39,8 @@
 //! up to a quarter between runs, as much as the margins the goal is decided by. So every measured
 //! setting is rendered [`RadianceConfig::repeats`] times (3 by default, 1 in the smoke run): wfic
 //! with as many seeds, each against that seed's own brute-force image, Radiance with a fresh
-//! ambient file each time (one `rtrace` process samples the same way every run, two split the
-//! pixels differently each run). A row is the median of their times and records and the mean of
+//! ambient file each time (its errors move between runs too: Cornell at one process 1.16% to
+//! 1.21% in `results/radiance/`). A row is the median of their times and records and the mean of
 //! their errors; the equal-error table also gives the range of the cache errors.
 
 use super::Machine;
