@@ -43,7 +43,7 @@
 //! 1.21% in `results/radiance/`). A row is the median of their times and records and the mean of
 //! their errors; the equal-error table also gives the range of the cache errors.
 
-use super::Machine;
+use super::{median, Machine};
 use crate::cache::Scheme;
 use crate::render::film::Image;
 use crate::render::scene::luminance;
@@ -425,20 +425,12 @@ impl Run {
     /// errors, the range of the cache error.
     pub fn combine(runs: Vec<Run>) -> Run {
         assert!(!runs.is_empty(), "a row needs a render");
-        let median = |mut v: Vec<f64>| {
-            v.sort_by(f64::total_cmp);
-            let k = v.len();
-            if k % 2 == 1 {
-                v[k / 2]
-            } else {
-                0.5 * (v[k / 2 - 1] + v[k / 2])
-            }
-        };
         let k = runs.len() as f64;
         let mean = |f: &dyn Fn(&Run) -> f64| runs.iter().map(f).sum::<f64>() / k;
         let mut row = runs[0].clone();
-        row.seconds = median(runs.iter().map(|r| r.seconds).collect());
-        row.records = median(runs.iter().map(|r| r.records as f64).collect()).round() as usize;
+        row.seconds = median(&runs.iter().map(|r| r.seconds).collect::<Vec<_>>());
+        let records: Vec<f64> = runs.iter().map(|r| r.records as f64).collect();
+        row.records = median(&records).round() as usize;
         row.cache_error = ImageError {
             rel_rmse: mean(&|r| r.cache_error.rel_rmse),
             mean_rel: mean(&|r| r.cache_error.mean_rel),
