@@ -23,9 +23,22 @@ mod app {
     pub fn main() {
         let args: Vec<String> = std::env::args().collect();
         let name = args.get(1).map_or("cornell", String::as_str);
-        let rays: u32 = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(512);
-        let points: u32 = args.get(3).and_then(|s| s.parse().ok()).unwrap_or(64);
-        let estimates: u32 = args.get(4).and_then(|s| s.parse().ok()).unwrap_or(48);
+        // A number argument, its default when absent; a bad one is refused, not replaced.
+        let number = |i: usize, what: &str, default: u32, min: u32| -> u32 {
+            let Some(arg) = args.get(i) else {
+                return default;
+            };
+            match arg.parse::<u32>() {
+                Ok(v) if v >= min => v,
+                _ => {
+                    eprintln!("record_noise: {what} must be a whole number of at least {min}, got `{arg}`");
+                    std::process::exit(2);
+                }
+            }
+        };
+        let rays = number(2, "rays per record", 512, 6);
+        let points = number(3, "points", 64, 2);
+        let estimates = number(4, "estimates", 48, 2);
         let scene = match scenes::load(name) {
             Ok(s) => s,
             Err(e) => {
@@ -70,6 +83,13 @@ mod app {
             }
             let var = lum.iter().map(|l| (l - mean).powi(2)).sum::<f64>() / (lum.len() - 1) as f64;
             rel_var.push(var / (mean * mean));
+        }
+        if rel_var.len() < 2 {
+            eprintln!(
+                "record_noise: {name}: only {} of {points} points see a lit, non-emitting surface",
+                rel_var.len()
+            );
+            std::process::exit(1);
         }
         let n = rel_var.len() as f64;
         let mean_rv = rel_var.iter().sum::<f64>() / n;

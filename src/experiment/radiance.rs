@@ -89,7 +89,7 @@ pub struct RadianceConfig {
     /// Keep the exported scene, rays and ambient files (`DIR/work-NAME/`).
     pub keep_work: bool,
     /// Renders of every measured setting: Radiance runs again with a fresh ambient file (its
-    /// sampling differs from run to run), wfic with another seed against that seed's own
+    /// error can differ from run to run), wfic with another seed against that seed's own
     /// brute-force image. A row is the median of their times and the mean of their errors: one
     /// frame's cache error moves by about a tenth between seeds, and its time by up to a quarter,
     /// which is as much as the margins the goal is decided by.
@@ -560,6 +560,7 @@ impl References<'_> {
         repeat: usize,
     ) -> Run {
         let own = &self.own[repeat.min(self.own.len() - 1)];
+        let cache_error = image_error(img, own, self.mask);
         Run {
             renderer,
             role,
@@ -570,10 +571,10 @@ impl References<'_> {
             min_radius_pixels: s.map_or(0.0, |s| s.min_radius_pixels),
             seconds,
             records,
-            cache_error: image_error(img, own, self.mask),
+            cache_error,
             image_error: image_error(img, self.converged, self.mask),
             repeats: 1,
-            cache_error_range: (0.0, 0.0),
+            cache_error_range: (cache_error.rel_rmse, cache_error.rel_rmse),
         }
     }
 
