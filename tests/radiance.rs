@@ -89,6 +89,11 @@ fn radiance_and_wfic_render_the_same_cornell_box() {
         !swept.is_empty() && swept.iter().all(|&a| a == 0.2),
         "sweep accuracies {swept:?}, expected 0.2 (0.15 x 4/3, rounded)"
     );
+    // Each brute-force reference traces 4N rays per pixel (the wfic row reads its settings).
+    for renderer in ["radiance", "wfic"] {
+        let reference = r.find(renderer, "reference", 2).unwrap();
+        assert_eq!(reference.rays, 4 * config.rays, "{renderer} reference");
+    }
     assert!(dir.join("cornell-side-by-side.png").is_file());
     assert!(!dir.join("work-cornell").exists(), "scratch files left");
     std::fs::remove_dir_all(&dir).ok();
@@ -116,6 +121,25 @@ fn without_radiance_the_command_says_how_to_install_it_and_exits_2() {
     assert!(err.contains("pip install pyradiance"), "{err}");
     assert!(err.contains("pyradiance/bin"), "{err}");
     assert!(!dir.exists(), "nothing is written without Radiance");
+}
+
+#[test]
+fn zero_repeats_are_refused_before_anything_runs() {
+    let out = Command::new(env!("CARGO_BIN_EXE_wfic"))
+        .args([
+            "compare",
+            "radiance",
+            "--scene",
+            "cornell",
+            "--quick",
+            "--repeats",
+            "0",
+        ])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("--repeats must be at least 1"), "{err}");
 }
 
 #[test]

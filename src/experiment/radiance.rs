@@ -530,9 +530,9 @@ fn wfic_frame(scene: &Scene, s: &RenderSettings, threads: usize) -> Result<Frame
     Ok(render_with_scheme(Scheme::Wf, scene, &scene.camera(), s, config, threads).0)
 }
 
-/// The images a comparison measures against: the renderer's own brute-force image (wfic: one
-/// per seed, repeat `i` against `own[i]`; Radiance: one for every repeat), the converged one, the
-/// pixels measured.
+/// The images a comparison measures against: the renderer's own brute-force images (wfic: one
+/// per seed, repeat `i` against `own[i]`; Radiance: one, every repeat against `own[0]`), the
+/// converged one, the pixels measured.
 struct References<'a> {
     own: &'a [Image],
     converged: &'a Image,
@@ -559,7 +559,7 @@ impl References<'_> {
         img: &Image,
         repeat: usize,
     ) -> Run {
-        let own = &self.own[repeat.min(self.own.len() - 1)];
+        let own = &self.own[repeat];
         let cache_error = image_error(img, own, self.mask);
         Run {
             renderer,
@@ -768,7 +768,7 @@ pub fn compare_scene(
             "reference",
             2,
             Some(&ref_settings),
-            (0.0, 4 * n),
+            (0.0, ref_settings.rays_per_record),
             wfic_ref_seconds,
             0,
             wfic_ref,
@@ -1551,6 +1551,92 @@ mod tests {
         // An even count takes the middle two.
         let row = Run::combine(vec![run(1.0, 0.01, 10), run(2.0, 0.01, 20)]);
         assert_eq!((row.seconds, row.records), (1.5, 15));
+    }
+
+    #[test]
+    fn the_smoke_run_renders_each_setting_once_the_full_run_three_times() {
+        // CI's `--quick` run stays a smoke run; the committed one averages three renders.
+        assert_eq!(RadianceConfig::quick(vec![]).repeats, 1);
+        assert_eq!(RadianceConfig::full(vec![]).repeats, 3);
+    }
+
+    #[test]
+    fn the_tables_give_a_repeated_rows_range_and_the_csv_its_renders() {
+        let run = |renderer, role, workers, seconds, error: f64, range, repeats| Run {
+            renderer,
+            role,
+            workers,
+            accuracy: 0.15,
+            rays: 512,
+            light_samples: 8,
+            min_radius_pixels: 12.0,
+            seconds,
+            records: 100,
+            cache_error: ImageError {
+                rel_rmse: error,
+                mean_rel: error,
+            },
+            image_error: ImageError {
+                rel_rmse: error,
+                mean_rel: error,
+            },
+            repeats,
+            cache_error_range: range,
+        };
+        let comparison = SceneComparison {
+            scene: "cornell".into(),
+            triangles: 32,
+            source: "real",
+            radiance_load_seconds: 0.0,
+            oconv_seconds: 0.0,
+            runs: vec![
+                run("radiance", "matched", 1, 2.0, 0.0118, (0.0116, 0.0121), 3),
+                run("radiance", "matched", 2, 1.5, 0.0119, (0.0114, 0.0122), 3),
+                run("wfic", "equal-error", 1, 0.3, 0.0118, (0.0112, 0.0128), 3),
+                run("wfic", "equal-error", 2, 0.1, 0.0115, (0.0115, 0.0115), 1),
+            ],
+            cross_check: ImageError {
+                rel_rmse: 0.0,
+                mean_rel: 0.0,
+            },
+            mean_ratio: 1.0,
+        };
+        let machine = Machine {
+            cores: 2,
+            cpu: "test CPU".into(),
+        };
+        let config = RadianceConfig::full(vec!["cornell".into()]);
+        let md = markdown(
+            &config,
+            std::slice::from_ref(&comparison),
+            &machine,
+            "R",
+            "cmd",
+        );
+        let row = |workers: usize| {
+            md.lines()
+                .find(|l| l.starts_with(&format!("| cornell | {workers} | ")))
+                .unwrap_or_else(|| panic!("no equal-error row for {workers} in\n{md}"))
+                .to_owned()
+        };
+        // Three renders: the mean with its range; one render: the error alone.
+        assert!(row(1).contains("| 1.18% (1.16%–1.21%) |"), "{}", row(1));
+        assert!(row(1).contains("| 1.18% (1.12%–1.28%) |"), "{}", row(1));
+        assert!(row(1).contains("a 0.15 N 512 r_min 12 px"), "{}", row(1));
+        assert!(row(2).contains("| 1.15% |"), "{}", row(2));
+        assert!(md.contains("is 3 render(s) of its setting"), "{md}");
+        let csv = csv(std::slice::from_ref(&comparison));
+        let header: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
+        let line: Vec<&str> = csv.lines().nth(3).unwrap().split(',').collect();
+        let col = |name: &str| line[header.iter().position(|h| *h == name).unwrap()];
+        assert_eq!(
+            (
+                col("repeats"),
+                col("cache_rel_rmse_min"),
+                col("cache_rel_rmse_max")
+            ),
+            ("3", "0.011200", "0.012800")
+        );
     }
 
     #[test]
