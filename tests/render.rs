@@ -187,6 +187,66 @@ fn a_warm_cache_serves_the_next_frame() {
 }
 
 #[test]
+fn flat_and_bvh_traversals_find_the_same_hits() {
+    use wfic::render::flat::Traversal;
+    use wfic::rng::Rng;
+    // The Cornell box is small enough to be traversed flat; the same scene through its BVH must
+    // see the same surfaces. Rays from random points inside the box in random directions, and
+    // shadow queries cut short at a random fraction of the way. Hits nearer than 1e-3 are left
+    // out: obvhs's box test takes boxes nearer than 1e-4 as behind the ray, the flat test does
+    // not (the renderer's rays start 1e-4 of the scene's diagonal off the surface).
+    let flat = scenes::cornell().unwrap();
+    assert_eq!(flat.traversal(), Traversal::Flat);
+    let bvh = scenes::cornell().unwrap().with_traversal(Traversal::Bvh);
+    assert_eq!(bvh.traversal(), Traversal::Bvh);
+    let (lo, hi) = flat.bounds();
+    let mut rng = Rng::new(11);
+    let (mut rays, mut differ, mut hits) = (20_000, 0, 0);
+    if cfg!(debug_assertions) {
+        rays /= 10;
+    }
+    for _ in 0..rays {
+        let u = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
+        let o = lo + (hi - lo) * (0.02 + 0.96 * u);
+        let d = loop {
+            let v = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 2.0 - Vec3::ONE;
+            if v.length_squared() > 1e-4 && v.length_squared() <= 1.0 {
+                break v.normalize();
+            }
+        };
+        let (a, b) = (
+            flat.intersect(o, d, f32::INFINITY),
+            bvh.intersect(o, d, f32::INFINITY),
+        );
+        if a.is_some_and(|h| h.t < 1e-3) || b.is_some_and(|h| h.t < 1e-3) {
+            continue;
+        }
+        let same = match (a, b) {
+            (Some(a), Some(b)) => {
+                hits += 1;
+                (a.t - b.t).abs() <= 1e-4 * a.t.max(1.0) && a.material == b.material
+            }
+            (None, None) => true,
+            _ => false,
+        };
+        // A ray through a shared edge may take either triangle's material: allow a handful.
+        differ += usize::from(!same);
+        let cut = (rng.next_f32() * a.map_or(1.0, |h| 2.0 * h.t)).max(1e-3);
+        assert_eq!(
+            flat.unoccluded(o, d, cut),
+            bvh.unoccluded(o, d, cut),
+            "shadow ray from {o} along {d} to {cut}"
+        );
+    }
+    // The box is open towards the camera: most rays, not all, hit.
+    assert!(hits > rays / 2, "{hits} of {rays} rays hit");
+    assert!(
+        differ <= rays / 1000,
+        "{differ} of {rays} closest hits differ"
+    );
+}
+
+#[test]
 fn built_in_scenes_have_the_documented_sizes() {
     // Triangles with a non-zero area and emitting triangles, as scenes/README.md lists them.
     let expected = [

@@ -42,6 +42,7 @@ pub mod cli;
 #[cfg(feature = "mpi")]
 pub mod distributed;
 pub mod film;
+pub mod flat;
 pub mod integrator;
 pub mod lights;
 pub mod obj;

@@ -2,6 +2,7 @@
 //! (obvhs's compressed wide BVH, built once per scene) that answers closest-hit and shadow queries.
 
 use super::camera::{Camera, Orbit};
+use super::flat::{FlatTriangles, Traversal};
 use super::lights::{Light, LightChoice, LightSample, Lights};
 use glam::{Vec3, Vec3A};
 use obvhs::cwbvh::{builder::build_cwbvh_from_tris, CwBvh};
@@ -169,7 +170,7 @@ impl SceneBuilder {
                 }
             })
             .collect();
-        let rt = tris.iter().map(|t| RtTriangle::from(&t.geometry)).collect();
+        let rt: Vec<RtTriangle> = tris.iter().map(|t| RtTriangle::from(&t.geometry)).collect();
         let (lo, hi) = triangles.iter().fold(
             (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
             |(lo, hi), t| {
@@ -202,6 +203,8 @@ impl SceneBuilder {
             name: name.to_owned(),
             input_triangles: triangles.len(),
             tris,
+            flat: (Traversal::for_triangles(rt.len()) == Traversal::Flat)
+                .then(|| FlatTriangles::new(&rt)),
             rt,
             materials: self.materials,
             bvh,
@@ -245,6 +248,8 @@ pub struct Scene {
     /// `RtTriangle`), apart from `tris` so traversal reads 64 bytes a triangle and no more.
     rt: Vec<RtTriangle>,
     materials: Vec<Material>,
+    /// The triangles in batches (`rt`'s order) when the scene is traversed flat.
+    flat: Option<FlatTriangles>,
     bvh: CwBvh,
     lights: Lights,
     bounds: (Vec3, Vec3),
@@ -288,6 +293,26 @@ impl Scene {
     /// Triangles with a non-zero area.
     pub fn triangle_count(&self) -> usize {
         self.input_triangles
+    }
+
+    /// How rays find triangles: flat for a scene of at most [`crate::render::flat::FLAT_MAX`]
+    /// triangles, else the BVH ([`Traversal::for_triangles`]).
+    pub fn traversal(&self) -> Traversal {
+        if self.flat.is_some() {
+            Traversal::Flat
+        } else {
+            Traversal::Bvh
+        }
+    }
+
+    /// The same scene traversed by `traversal` whatever its size: for the benchmark that sets
+    /// [`crate::render::flat::FLAT_MAX`] and the test that holds both to the same hits.
+    pub fn with_traversal(mut self, traversal: Traversal) -> Self {
+        self.flat = match traversal {
+            Traversal::Flat => Some(FlatTriangles::new(&self.rt)),
+            Traversal::Bvh => None,
+        };
+        self
     }
 
     /// Emissive triangles.
@@ -351,6 +376,16 @@ impl Scene {
     /// The closest hit along the unit ray `origin + t dir`, `t` in `(0, t_max)`.
     #[inline]
     pub fn intersect(&self, origin: Vec3, dir: Vec3, t_max: f32) -> Option<Hit> {
+        if let Some(flat) = &self.flat {
+            return flat.closest(origin, dir, t_max).map(|(t, id)| {
+                let tri = &self.tris[id as usize];
+                Hit {
+                    t,
+                    normal: tri.normal,
+                    material: self.materials[tri.material as usize],
+                }
+            });
+        }
         let ray = Ray::new(Vec3A::from(origin), Vec3A::from(dir), 0.0, t_max);
         let mut hit = RayHit::none();
         if self
@@ -371,6 +406,9 @@ impl Scene {
     /// True when nothing blocks the unit ray `origin + t dir` for `t` in `(0, t_max)`.
     #[inline]
     pub fn unoccluded(&self, origin: Vec3, dir: Vec3, t_max: f32) -> bool {
+        if let Some(flat) = &self.flat {
+            return !flat.occluded(origin, dir, t_max);
+        }
         let ray = Ray::new(Vec3A::from(origin), Vec3A::from(dir), 0.0, t_max);
         self.bvh
             .ray_traverse_miss(ray, |r, id| self.rt[id].intersect(r))
