@@ -197,6 +197,9 @@ mod tests {
         assert_eq!(Traversal::for_triangles(FLAT_MAX), Traversal::Flat);
         assert_eq!(Traversal::for_triangles(FLAT_MAX + 1), Traversal::Bvh);
         // The names label `benches/rays.rs`'s results (`rays/flat/N`, `rays/bvh/N`).
-        assert_eq!((Traversal::Flat.name(), Traversal::Bvh.name()), ("flat", "bvh"));
+        assert_eq!(
+            (Traversal::Flat.name(), Traversal::Bvh.name()),
+            ("flat", "bvh")
+        );
     }
 }
