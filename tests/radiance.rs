@@ -99,25 +99,29 @@ fn radiance_and_wfic_render_the_same_cornell_box() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// `wfic compare radiance --quick` with `args` after it, as `adjust` sets the command up: its exit
+/// code and standard error.
+fn compare_quick(args: &[&str], adjust: impl FnOnce(&mut Command)) -> (Option<i32>, String) {
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_wfic"));
+    cmd.args(["compare", "radiance", "--quick"]).args(args);
+    adjust(&mut cmd);
+    let out = cmd.output().unwrap();
+    (
+        out.status.code(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
 #[test]
 fn without_radiance_the_command_says_how_to_install_it_and_exits_2() {
     let dir = std::env::temp_dir().join(format!("wfic-noradiance-{}", std::process::id()));
-    let out = Command::new(env!("CARGO_BIN_EXE_wfic"))
-        .args([
-            "compare",
-            "radiance",
-            "--scene",
-            "cornell",
-            "--quick",
-            "--out-dir",
-        ])
-        .arg(&dir)
-        .env("PATH", "")
-        .env_remove("WFIC_RADIANCE_BIN")
-        .output()
-        .unwrap();
-    assert_eq!(out.status.code(), Some(2));
-    let err = String::from_utf8_lossy(&out.stderr);
+    let (code, err) = compare_quick(
+        &["--scene", "cornell", "--out-dir", dir.to_str().unwrap()],
+        |cmd| {
+            cmd.env("PATH", "").env_remove("WFIC_RADIANCE_BIN");
+        },
+    );
+    assert_eq!(code, Some(2));
     assert!(err.contains("pip install pyradiance"), "{err}");
     assert!(err.contains("pyradiance/bin"), "{err}");
     assert!(!dir.exists(), "nothing is written without Radiance");
@@ -125,30 +129,14 @@ fn without_radiance_the_command_says_how_to_install_it_and_exits_2() {
 
 #[test]
 fn zero_repeats_are_refused_before_anything_runs() {
-    let out = Command::new(env!("CARGO_BIN_EXE_wfic"))
-        .args([
-            "compare",
-            "radiance",
-            "--scene",
-            "cornell",
-            "--quick",
-            "--repeats",
-            "0",
-        ])
-        .output()
-        .unwrap();
-    assert_eq!(out.status.code(), Some(2));
-    let err = String::from_utf8_lossy(&out.stderr);
+    let (code, err) = compare_quick(&["--scene", "cornell", "--repeats", "0"], |_| {});
+    assert_eq!(code, Some(2));
     assert!(err.contains("--repeats must be at least 1"), "{err}");
 }
 
 #[test]
 fn an_unknown_scene_is_refused_before_anything_runs() {
-    let out = Command::new(env!("CARGO_BIN_EXE_wfic"))
-        .args(["compare", "radiance", "--scene", "atrium", "--quick"])
-        .output()
-        .unwrap();
-    assert_eq!(out.status.code(), Some(2));
-    let err = String::from_utf8_lossy(&out.stderr);
+    let (code, err) = compare_quick(&["--scene", "atrium"], |_| {});
+    assert_eq!(code, Some(2));
     assert!(err.contains("atrium") && err.contains("sponza"), "{err}");
 }

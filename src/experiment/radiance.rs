@@ -1485,29 +1485,39 @@ fn csv(results: &[SceneComparison]) -> String {
 mod tests {
     use super::*;
 
-    #[test]
-    fn the_speed_goal_needs_the_error_at_or_below_and_a_tenth_of_the_time() {
-        let run = |seconds: f64, error: f64| Run {
-            renderer: "wfic",
-            role: "equal-error",
-            workers: 1,
+    /// One render of `renderer`'s `role` at `workers`: a 0.15, N 512, 8 light samples, 6 px,
+    /// 100 records, every error `error`. Tests change the fields they are about.
+    fn one_run(
+        renderer: &'static str,
+        role: &'static str,
+        workers: usize,
+        seconds: f64,
+        error: f64,
+    ) -> Run {
+        let e = ImageError {
+            rel_rmse: error,
+            mean_rel: error,
+        };
+        Run {
+            renderer,
+            role,
+            workers,
             accuracy: 0.15,
             rays: 512,
             light_samples: 8,
             min_radius_pixels: 6.0,
             seconds,
             records: 100,
-            cache_error: ImageError {
-                rel_rmse: error,
-                mean_rel: error,
-            },
-            image_error: ImageError {
-                rel_rmse: error,
-                mean_rel: error,
-            },
+            cache_error: e,
+            image_error: e,
             repeats: 1,
             cache_error_range: (error, error),
-        };
+        }
+    }
+
+    #[test]
+    fn the_speed_goal_needs_the_error_at_or_below_and_a_tenth_of_the_time() {
+        let run = |seconds: f64, error: f64| one_run("wfic", "equal-error", 1, seconds, error);
         let rad = run(10.0, 0.02);
         assert_eq!(speed_goal("equal-error", &run(1.0, 0.02), &rad), "yes");
         assert_eq!(speed_goal("equal-error-2", &run(0.5, 0.019), &rad), "yes");
@@ -1522,14 +1532,6 @@ mod tests {
     #[test]
     fn a_row_is_the_median_time_and_the_mean_error_of_its_renders() {
         let run = |seconds: f64, error: f64, records: usize| Run {
-            renderer: "wfic",
-            role: "sweep",
-            workers: 2,
-            accuracy: 0.15,
-            rays: 512,
-            light_samples: 8,
-            min_radius_pixels: 6.0,
-            seconds,
             records,
             cache_error: ImageError {
                 rel_rmse: error,
@@ -1539,8 +1541,8 @@ mod tests {
                 rel_rmse: 3.0 * error,
                 mean_rel: 4.0 * error,
             },
-            repeats: 1,
             cache_error_range: (0.0, 0.0),
+            ..one_run("wfic", "sweep", 2, seconds, error)
         };
         // A slow outlier moves the median not at all; the errors are averaged.
         let row = Run::combine(vec![
@@ -1570,26 +1572,11 @@ mod tests {
 
     #[test]
     fn the_tables_give_a_repeated_rows_range_and_the_csv_its_renders() {
-        let run = |renderer, role, workers, seconds, error: f64, range, repeats| Run {
-            renderer,
-            role,
-            workers,
-            accuracy: 0.15,
-            rays: 512,
-            light_samples: 8,
+        let run = |renderer, role, workers, seconds, error, range, repeats| Run {
             min_radius_pixels: 12.0,
-            seconds,
-            records: 100,
-            cache_error: ImageError {
-                rel_rmse: error,
-                mean_rel: error,
-            },
-            image_error: ImageError {
-                rel_rmse: error,
-                mean_rel: error,
-            },
             repeats,
             cache_error_range: range,
+            ..one_run(renderer, role, workers, seconds, error)
         };
         let comparison = SceneComparison {
             scene: "cornell".into(),

@@ -1,5 +1,7 @@
 //! Scenes: triangles with diffuse materials, emissive triangles as area lights, and the BVH
-//! (obvhs's compressed wide BVH, built once per scene) that answers closest-hit and shadow queries.
+//! (obvhs's compressed wide BVH, built once per scene) that answers closest-hit and shadow queries;
+//! a scene of at most [`super::flat::FLAT_MAX`] triangles answers them from a flat list instead
+//! ([`super::flat`]).
 
 use super::camera::{Camera, Orbit};
 use super::flat::{FlatTriangles, Traversal};
@@ -376,31 +378,24 @@ impl Scene {
     /// The closest hit along the unit ray `origin + t dir`, `t` in `(0, t_max)`.
     #[inline]
     pub fn intersect(&self, origin: Vec3, dir: Vec3, t_max: f32) -> Option<Hit> {
-        if let Some(flat) = &self.flat {
-            return flat.closest(origin, dir, t_max).map(|(t, id)| {
-                let tri = &self.tris[id as usize];
-                Hit {
-                    t,
-                    normal: tri.normal,
-                    material: self.materials[tri.material as usize],
-                }
-            });
-        }
-        let ray = Ray::new(Vec3A::from(origin), Vec3A::from(dir), 0.0, t_max);
-        let mut hit = RayHit::none();
-        if self
-            .bvh
-            .ray_traverse(ray, &mut hit, |r, id| self.rt[id].intersect(r))
-        {
-            let tri = &self.tris[hit.primitive_id as usize];
-            Some(Hit {
-                t: hit.t,
+        // The distance and the index (in `tris`' order) of the nearest triangle.
+        let nearest = if let Some(flat) = &self.flat {
+            flat.closest(origin, dir, t_max)
+        } else {
+            let ray = Ray::new(Vec3A::from(origin), Vec3A::from(dir), 0.0, t_max);
+            let mut hit = RayHit::none();
+            self.bvh
+                .ray_traverse(ray, &mut hit, |r, id| self.rt[id].intersect(r))
+                .then_some((hit.t, hit.primitive_id))
+        };
+        nearest.map(|(t, id)| {
+            let tri = &self.tris[id as usize];
+            Hit {
+                t,
                 normal: tri.normal,
                 material: self.materials[tri.material as usize],
-            })
-        } else {
-            None
-        }
+            }
+        })
     }
 
     /// True when nothing blocks the unit ray `origin + t dir` for `t` in `(0, t_max)`.
