@@ -181,6 +181,10 @@ pub struct Interpolated {
     pub records: u32,
     /// How many of them another worker computed (the paper's argument for sharing).
     pub foreign: u32,
+    /// The largest of their weights: a renderer that interpolates at a wider accuracy than it
+    /// places records at (its smoothing) asks whether some record is valid at the narrower one,
+    /// which is this above `1 / a`.
+    pub max_weight: f64,
 }
 
 /// Accumulates valid records for one query; every cache and the brute-force oracle use it, so they
@@ -196,6 +200,7 @@ pub struct Accumulator {
     sum: DVec3,
     records: u32,
     foreign: u32,
+    max_weight: f64,
 }
 
 impl Accumulator {
@@ -212,6 +217,7 @@ impl Accumulator {
             sum: DVec3::ZERO,
             records: 0,
             foreign: 0,
+            max_weight: 0.0,
         }
     }
 
@@ -232,6 +238,7 @@ impl Accumulator {
         match valid_weight(record, self.point, self.normal, self.accuracy) {
             Some(w) => {
                 self.weight += w;
+                self.max_weight = self.max_weight.max(w);
                 self.sum += w * extrapolate(record, self.point, self.normal).as_dvec3();
                 self.records += 1;
                 if self.asker.is_some_and(|me| record.id().worker() != me) {
@@ -250,6 +257,7 @@ impl Accumulator {
             weight: self.weight,
             records: self.records,
             foreign: self.foreign,
+            max_weight: self.max_weight,
         })
     }
 }
@@ -370,6 +378,12 @@ mod tests {
         let out = acc.finish().unwrap();
         assert!((out.irradiance - Vec3::splat(1.5)).abs().max_element() < 1e-6);
         assert!(close(out.weight, 16.0 / 3.0));
+        // The largest weight is the nearer record's, whichever came first.
+        assert!(close(out.max_weight, 4.0));
+        let mut acc = Accumulator::new(Vec3::new(-0.25, 0.0, 0.0), Vec3::Z, 0.9, None);
+        acc.add(&b);
+        acc.add(&a);
+        assert!(close(acc.finish().unwrap().max_weight, 4.0));
     }
 
     #[test]
