@@ -57,6 +57,9 @@ pub struct CacheConfig {
 pub enum ConfigError {
     /// The accuracy is not in `(0, 2]`.
     Accuracy(f32),
+    /// A renderer's smoothing (the factor its lookups widen the accuracy by: the renderer's
+    /// `RenderSettings::smoothing`) is below 1 or not finite.
+    Smoothing(f32),
     /// The bounds are empty, inverted or not finite.
     Bounds {
         /// Lower corner given.
@@ -70,6 +73,11 @@ impl fmt::Display for ConfigError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             Self::Accuracy(a) => write!(f, "accuracy {a} is not in (0, 2]"),
+            Self::Smoothing(k) => write!(
+                f,
+                "smoothing {k} is not a finite number of at least 1 (lookups interpolate at \
+                 smoothing x accuracy, never below the accuracy records are placed at)"
+            ),
             Self::Bounds { min, max } => {
                 write!(f, "cache bounds {min}..{max} are empty or not finite")
             }

@@ -79,6 +79,10 @@ pub struct RenderArgs {
     /// Hemisphere rays per irradiance record.
     #[arg(long, default_value_t = 512)]
     pub rays_per_record: u32,
+    /// Smoothing `k` (at least 1): pixels interpolate every record valid at accuracy `k a`; new
+    /// records are still computed only where none is valid at `a` (1: Ward's cache).
+    #[arg(long, default_value_t = 1.0)]
+    pub smoothing: f32,
     /// Light samples (shadow rays) per primary hit for direct light.
     #[arg(long, default_value_t = 16)]
     pub light_samples: u32,
@@ -244,9 +248,17 @@ pub fn settings_from(args: &RenderArgs) -> Result<RenderSettings, RenderError> {
     if !(args.accuracy > 0.0 && args.accuracy <= 2.0) {
         return usage(format!("--accuracy {} is not in (0, 2]", args.accuracy));
     }
+    if !(args.smoothing >= 1.0 && args.smoothing * args.accuracy <= 2.0) {
+        return usage(format!(
+            "--smoothing {} must be at least 1, with --smoothing x --accuracy at most 2 (lookups \
+             interpolate at that accuracy)",
+            args.smoothing
+        ));
+    }
     Ok(RenderSettings::new(args.width, args.height)
         .accuracy(args.accuracy)
         .rays_per_record(args.rays_per_record)
+        .smoothing(args.smoothing)
         .light_samples(args.light_samples)
         .pixel_samples(args.spp)
         .seed(args.seed)

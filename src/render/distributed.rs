@@ -144,13 +144,14 @@ pub fn fingerprint(
     let s = settings;
     let line =
         format!(
-        "scene {} ({} triangles), {}x{}, a {}, {} rays a record, {} light samples, {} spp, seed \
+        "scene {} ({} triangles), {}x{}, a {} smoothing {}, {} rays a record, {} light samples, {} spp, seed \
          {:#x}, radius clamps {}-{} px, tile {}, eye {} target {}, batch {} records / {} ms, {}",
         scene.name(),
         scene.triangle_count(),
         s.width,
         s.height,
         s.accuracy,
+        s.smoothing,
         s.rays_per_record,
         s.light_samples,
         s.pixel_samples,

@@ -403,7 +403,8 @@ impl std::ops::AddAssign for SampleCounters {
 }
 
 /// The integrator of one frame: the scene seen through one view with one set of settings, and
-/// the cache's accuracy (for the gradient limit). Read-only, shared by the workers.
+/// the accuracy records are placed at (for the gradient limit and, under smoothing, the test
+/// that a lookup found a record valid at it). Read-only, shared by the workers.
 pub struct PixelIntegrator<'a> {
     scene: &'a Scene,
     view: View,
@@ -412,11 +413,14 @@ pub struct PixelIntegrator<'a> {
     eps: f32,
     diagonal: f32,
     accuracy: f32,
+    /// `1 / accuracy`: a lookup answers the pixel only if some record's weight is above it.
+    reuse_weight: f64,
 }
 
 impl<'a> PixelIntegrator<'a> {
     /// The integrator for `scene` seen by `camera` with `settings`, feeding a cache of accuracy
-    /// `accuracy`.
+    /// `accuracy` (the interpolation's: [`RenderSettings::cache_config`] makes it
+    /// `smoothing * a`, and records are placed at `accuracy / smoothing`).
     pub fn new(
         scene: &'a Scene,
         camera: &Camera,
@@ -430,7 +434,8 @@ impl<'a> PixelIntegrator<'a> {
             strata: settings.strata(),
             eps: 1e-4 * scene.diagonal(),
             diagonal: scene.diagonal(),
-            accuracy,
+            accuracy: accuracy / settings.smoothing,
+            reuse_weight: 1.0 / f64::from(accuracy / settings.smoothing),
         }
     }
 
@@ -497,7 +502,13 @@ impl<'a> PixelIntegrator<'a> {
             &mut rng,
             &mut counters.rays,
         );
-        let indirect = match handle.lookup(x, n) {
+        // Without smoothing every record a lookup finds weighs above 1 / a; with it, the pixel
+        // takes the wider average only where some record is valid at `a` itself, so the records
+        // computed are the ones Ward's cache computes.
+        let found = handle
+            .lookup(x, n)
+            .filter(|f| f.max_weight > self.reuse_weight);
+        let indirect = match found {
             Some(found) => found.irradiance,
             None => {
                 let mut rng =

@@ -84,6 +84,12 @@ pub struct RenderSettings {
     pub accuracy: f32,
     /// Hemisphere rays per irradiance estimate (rounded to `M x N` strata).
     pub rays_per_record: u32,
+    /// The smoothing `k` (at least 1): a pixel interpolates every record valid at accuracy
+    /// `k a`, but a new record is computed only where none is valid at `a`. The records are the
+    /// ones `k = 1` computes; each pixel averages more of them, so their sampling noise averages
+    /// down, for some interpolation error (`paper-notes.md`, "Radiance side by side"). 1, the
+    /// default, is Ward's cache as the paper has it.
+    pub smoothing: f32,
     /// Light samples (shadow rays) for the direct term at each primary hit. The default, 16,
     /// is the count at which the direct light's noise in the Cornell box falls below
     /// Radiance's deterministic sampling at its defaults (`paper-notes.md`, "Radiance side by
@@ -119,6 +125,7 @@ impl RenderSettings {
             height,
             accuracy: 0.25,
             rays_per_record: 512,
+            smoothing: 1.0,
             light_samples: 16,
             pixel_samples: 1,
             min_radius_pixels: 6.0,
@@ -141,6 +148,12 @@ impl RenderSettings {
     /// Sets the hemisphere rays per record.
     pub fn rays_per_record(mut self, rays: u32) -> Self {
         self.rays_per_record = rays;
+        self
+    }
+
+    /// Sets the smoothing `k` ([`RenderSettings::smoothing`]).
+    pub fn smoothing(mut self, k: f32) -> Self {
+        self.smoothing = k;
         self
     }
 
@@ -180,11 +193,15 @@ impl RenderSettings {
     }
 
     /// A cache configuration for `scene`: its bounds enlarged by 1% of the diagonal on every
-    /// side (so points on the outer walls are well inside), at this accuracy.
+    /// side (so points on the outer walls are well inside), at the accuracy lookups interpolate
+    /// at, `smoothing * accuracy`. A smoothing below 1 (or not finite) is refused.
     pub fn cache_config(&self, scene: &Scene) -> Result<CacheConfig, ConfigError> {
+        if !(self.smoothing >= 1.0 && self.smoothing.is_finite()) {
+            return Err(ConfigError::Smoothing(self.smoothing));
+        }
         let (lo, hi) = scene.bounds();
         let margin = 0.01 * scene.diagonal();
-        CacheConfig::new(lo - margin, hi + margin, self.accuracy)
+        CacheConfig::new(lo - margin, hi + margin, self.accuracy * self.smoothing)
     }
 
     /// The radius clamps at a point whose pixel footprint is `footprint`, for a scene of size

@@ -48,7 +48,10 @@ pub struct FrameStats {
     pub ic_samples: u64,
     /// Cache lookups.
     pub lookups: u64,
-    /// Lookups answered by the cache.
+    /// Lookups that found a valid record at the cache's accuracy. Under smoothing
+    /// ([`crate::render::RenderSettings::smoothing`]) that accuracy is `k a`, and a pixel whose
+    /// lookup found records but none valid at `a` still computes a new record: then `hits +
+    /// ic_samples` exceeds `lookups`.
     pub hits: u64,
     /// Hits that used at least one record another worker computed.
     pub shared_hits: u64,
