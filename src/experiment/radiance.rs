@@ -27,7 +27,9 @@
 //!
 //! The equal-error search sweeps wfic's accuracy at 2, 4/3, 1 and 2/3 times the matched one,
 //! its rays per record at 1/2, 5/8, 3/4, 7/8, 1, 5/4, 3/2 and 2 times (the smoke run: 1/2, 3/4,
-//! 1, 3/2, 2), and its lower radius clamp at 6 and 12 pixel footprints, at 2 threads. Each worker count's pick is the cheapest run at or below
+//! 1, 3/2, 2), its lower radius clamp at 6 and 12 pixel footprints, and its smoothing at 1 and 1.5
+//! ([`RenderSettings::smoothing`]: the same records, each pixel interpolating those valid at
+//! `1.5 a`), at 2 threads. Each worker count's pick is the cheapest run at or below
 //! Radiance's cache error at that worker count (`equal-error`, or `equal-error-1` and
 //! `equal-error-2` when the two differ), rendered again at 1 and at 2 workers; the goal column
 //! says yes only when that frame's own error is at or below Radiance's and its time at most
@@ -88,6 +90,10 @@ pub struct RadianceConfig {
     /// The lower radius clamps of the sweep, in pixel footprints (wfic's `min_radius_pixels`;
     /// Radiance clamps by `-ar` instead).
     pub sweep_min_radius: Vec<f32>,
+    /// The smoothings of the sweep (wfic's [`RenderSettings::smoothing`]: pixels interpolate
+    /// the records valid at `k a`, records are placed at `a` as without it). The matched runs
+    /// keep 1, Ward's cache as Radiance has it.
+    pub sweep_smoothing: Vec<f32>,
     /// The brute-force references are traced at one pixel of each `stride` x `stride` block
     /// (every error is measured on those pixels), so they cost `1 / stride^2` of a full image.
     pub reference_stride: u32,
@@ -115,6 +121,7 @@ impl RadianceConfig {
             sweep_accuracy_scales: vec![2.0, 4.0 / 3.0, 1.0, 2.0 / 3.0],
             sweep_rays_scales: vec![0.5, 0.625, 0.75, 0.875, 1.0, 1.25, 1.5, 2.0],
             sweep_min_radius: vec![6.0, 12.0],
+            sweep_smoothing: vec![1.0, 1.5],
             light_sweep: vec![8, 16, 32, 64, 128],
             converged_light_samples: 256,
             reference_stride: 4,
@@ -412,6 +419,8 @@ pub struct Run {
     pub light_samples: u32,
     /// wfic's lower radius clamp in pixel footprints (0 for Radiance, which uses `-ar`).
     pub min_radius_pixels: f32,
+    /// wfic's smoothing ([`RenderSettings::smoothing`]; 1 for Radiance).
+    pub smoothing: f32,
     /// Wall time of the frame (Radiance: the `rtrace` process, loading the octree included).
     pub seconds: f64,
     /// Cache records after the frame.
@@ -576,6 +585,7 @@ impl References<'_> {
             rays,
             light_samples: s.map_or(0, |s| s.light_samples),
             min_radius_pixels: s.map_or(0.0, |s| s.min_radius_pixels),
+            smoothing: s.map_or(1.0, |s| s.smoothing),
             seconds,
             records,
             cache_error,
@@ -853,22 +863,24 @@ pub fn compare_scene(
         for &rs in &config.sweep_rays_scales {
             let sn = ((n as f32 * rs).round() as u32).max(16);
             for &rmin in &config.sweep_min_radius {
-                let mut s = settings(config, sa, sn, config.light_samples, 0x5eed);
-                s.min_radius_pixels = rmin;
-                let run = wfic_refs.wfic(scene, "sweep", &s, 2)?;
-                say(
-                    &name,
-                    &format!(
-                        "sweep a {sa} N {sn} r_min {rmin} px: {:.3} s, {} records, cache error \
-                         {:.2}% (radiance {:.2}%)",
-                        run.seconds,
-                        run.records,
-                        100.0 * run.cache_error.rel_rmse,
-                        100.0 * target
-                    ),
-                );
-                swept.push((run.clone(), s.clone()));
-                runs.push(run);
+                for &k in &config.sweep_smoothing {
+                    let mut s = settings(config, sa, sn, config.light_samples, 0x5eed).smoothing(k);
+                    s.min_radius_pixels = rmin;
+                    let run = wfic_refs.wfic(scene, "sweep", &s, 2)?;
+                    say(
+                        &name,
+                        &format!(
+                            "sweep {}: {:.3} s, {} records, cache error {:.2}% (radiance {:.2}%)",
+                            wfic_setting(&run),
+                            run.seconds,
+                            run.records,
+                            100.0 * run.cache_error.rel_rmse,
+                            100.0 * target
+                        ),
+                    );
+                    swept.push((run.clone(), s.clone()));
+                    runs.push(run);
+                }
             }
         }
     }
@@ -881,8 +893,17 @@ pub fn compare_scene(
     const PICK_TRIES: usize = 4;
     swept.sort_by(|x, y| x.0.seconds.total_cmp(&y.0.seconds));
     let same = |x: &RenderSettings, y: &RenderSettings| {
-        (x.accuracy, x.rays_per_record, x.min_radius_pixels)
-            == (y.accuracy, y.rays_per_record, y.min_radius_pixels)
+        (
+            x.accuracy,
+            x.rays_per_record,
+            x.min_radius_pixels,
+            x.smoothing,
+        ) == (
+            y.accuracy,
+            y.rays_per_record,
+            y.min_radius_pixels,
+            y.smoothing,
+        )
     };
     // (reached, setting, its frames at 1 and 2 workers, the worker counts it is the pick of)
     type Pick = (bool, RenderSettings, [Option<Run>; 2], Vec<usize>);
@@ -908,11 +929,8 @@ pub fn compare_scene(
             say(
                 &name,
                 &format!(
-                    "{workers}-worker pick a {} N {} r_min {} px: cache error {:.2}% (radiance \
-                     {:.2}%)",
-                    st.accuracy,
-                    st.rays_per_record,
-                    st.min_radius_pixels,
+                    "{workers}-worker pick {}: cache error {:.2}% (radiance {:.2}%)",
+                    wfic_setting(&run),
                     100.0 * run.cache_error.rel_rmse,
                     100.0 * t
                 ),
@@ -1207,7 +1225,9 @@ fn markdown(
          of the frame (Radiance: the `rtrace` process, loading its octree included; the load \
          alone is listed below). Every row but the references is {} render(s) of its setting \
          (Radiance: runs with a fresh ambient file each; wfic: seeds, each against its own seed's \
-         brute-force image): the median time and record count, the mean errors.\n",
+         brute-force image): the median time and record count, the mean errors. A wfic setting \
+         ending in `k K` smooths: it computes the records Ward's cache computes at its accuracy \
+         `a`, and each pixel interpolates all those valid at `K a`.\n",
         config.accuracy,
         config.resolution,
         4 * n,
@@ -1250,7 +1270,12 @@ fn markdown(
                     run.accuracy,
                     run.rays,
                     if renderer == "wfic" {
-                        format!(" L {} r_min {} px", run.light_samples, run.min_radius_pixels)
+                        format!(
+                            " L {} r_min {} px{}",
+                            run.light_samples,
+                            run.min_radius_pixels,
+                            smoothing_label(run)
+                        )
                     } else {
                         String::new()
                     },
@@ -1323,13 +1348,11 @@ fn markdown(
             };
             let _ = writeln!(
                 s,
-                "| {} | {workers} | {:.3} | {} | {role}: a {} N {} r_min {} px | {:.3} | {} | {:.4} | {} | {} | {} |",
+                "| {} | {workers} | {:.3} | {} | {role}: {} | {:.3} | {} | {:.4} | {} | {} | {} |",
                 r.scene,
                 rad.seconds,
                 with_range(rad),
-                wf.accuracy,
-                wf.rays,
-                wf.min_radius_pixels,
+                wfic_setting(wf),
                 wf.seconds,
                 with_range(wf),
                 ratio,
@@ -1392,9 +1415,12 @@ fn markdown(
     let _ = writeln!(s, "\n## The sweep (wfic, 2 threads) and the references\n");
     let _ = writeln!(
         s,
-        "| scene | renderer | role | a | N | L | r_min px | seconds | records | cache error | image error |"
+        "| scene | renderer | role | a | N | L | r_min px | k | seconds | records | cache error | image error |"
     );
-    let _ = writeln!(s, "|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|");
+    let _ = writeln!(
+        s,
+        "|---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
+    );
     for r in results {
         for run in r
             .runs
@@ -1403,7 +1429,7 @@ fn markdown(
         {
             let _ = writeln!(
                 s,
-                "| {} | {} | {} | {} | {} | {} | {} | {:.3} | {} | {} | {} |",
+                "| {} | {} | {} | {} | {} | {} | {} | {} | {:.3} | {} | {} | {} |",
                 r.scene,
                 run.renderer,
                 run.role,
@@ -1411,6 +1437,7 @@ fn markdown(
                 run.rays,
                 run.light_samples,
                 run.min_radius_pixels,
+                run.smoothing,
                 run.seconds,
                 run.records,
                 pct(run.cache_error.rel_rmse),
@@ -1445,17 +1472,38 @@ fn markdown(
     s
 }
 
+/// A wfic row's setting as the tables name it: `a 0.15 N 320 r_min 6 px`, with `k 1.5` after it
+/// when the row smooths.
+fn wfic_setting(run: &Run) -> String {
+    format!(
+        "a {} N {} r_min {} px{}",
+        run.accuracy,
+        run.rays,
+        run.min_radius_pixels,
+        smoothing_label(run)
+    )
+}
+
+/// ` k K` for a row that smooths (K above 1), else nothing.
+fn smoothing_label(run: &Run) -> String {
+    if run.smoothing > 1.0 {
+        format!(" k {}", run.smoothing)
+    } else {
+        String::new()
+    }
+}
+
 /// Every run as CSV.
 fn csv(results: &[SceneComparison]) -> String {
     let mut s = String::from(
-        "scene,triangles,source,renderer,role,workers,accuracy,rays,light_samples,min_radius_pixels,seconds,records,\
+        "scene,triangles,source,renderer,role,workers,accuracy,rays,light_samples,min_radius_pixels,smoothing,seconds,records,\
          cache_rel_rmse,cache_mean_rel,image_rel_rmse,image_mean_rel,repeats,cache_rel_rmse_min,cache_rel_rmse_max\n",
     );
     for r in results {
         for run in &r.runs {
             let _ = writeln!(
                 s,
-                "{},{},{},{},{},{},{},{},{},{},{:.4},{},{:.6},{:.6},{:.6},{:.6},{},{:.6},{:.6}",
+                "{},{},{},{},{},{},{},{},{},{},{},{:.4},{},{:.6},{:.6},{:.6},{:.6},{},{:.6},{:.6}",
                 r.scene,
                 r.triangles,
                 r.source,
@@ -1466,6 +1514,7 @@ fn csv(results: &[SceneComparison]) -> String {
                 run.rays,
                 run.light_samples,
                 run.min_radius_pixels,
+                run.smoothing,
                 run.seconds,
                 run.records,
                 run.cache_error.rel_rmse,
@@ -1506,6 +1555,7 @@ mod tests {
             rays: 512,
             light_samples: 8,
             min_radius_pixels: 6.0,
+            smoothing: 1.0,
             seconds,
             records: 100,
             cache_error: e,
@@ -1588,7 +1638,10 @@ mod tests {
                 run("radiance", "matched", 1, 2.0, 0.0118, (0.0116, 0.0121), 3),
                 run("radiance", "matched", 2, 1.5, 0.0119, (0.0114, 0.0122), 3),
                 run("wfic", "equal-error", 1, 0.3, 0.0118, (0.0112, 0.0128), 3),
-                run("wfic", "equal-error", 2, 0.1, 0.0115, (0.0115, 0.0115), 1),
+                Run {
+                    smoothing: 1.5,
+                    ..run("wfic", "equal-error", 2, 0.1, 0.0115, (0.0115, 0.0115), 1)
+                },
             ],
             cross_check: ImageError {
                 rel_rmse: 0.0,
@@ -1619,6 +1672,13 @@ mod tests {
         assert!(row(1).contains("| 1.18% (1.12%–1.28%) |"), "{}", row(1));
         assert!(row(1).contains("a 0.15 N 512 r_min 12 px"), "{}", row(1));
         assert!(row(2).contains("| 1.15% |"), "{}", row(2));
+        // A smoothed row says so; an unsmoothed one does not.
+        assert!(
+            row(2).contains("a 0.15 N 512 r_min 12 px k 1.5 |"),
+            "{}",
+            row(2)
+        );
+        assert!(!row(1).contains(" k "), "{}", row(1));
         assert!(md.contains("is 3 render(s) of its setting"), "{md}");
         let csv = csv(std::slice::from_ref(&comparison));
         let header: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
@@ -1631,6 +1691,12 @@ mod tests {
                 col("cache_rel_rmse_max")
             ),
             ("3", "0.011200", "0.012800")
+        );
+        assert_eq!(col("smoothing"), "1");
+        let last: Vec<&str> = csv.lines().nth(4).unwrap().split(',').collect();
+        assert_eq!(
+            last[header.iter().position(|h| *h == "smoothing").unwrap()],
+            "1.5"
         );
     }
 
