@@ -181,13 +181,17 @@ fn arvo(
     u1: f64,
     u2: f64,
 ) -> Option<glam::DVec3> {
-    // The angle at a between the great circles to b and to c.
+    // The angle alpha at a between the great circles to b and to c, through its cosine and sine
+    // alone: the unit normals of the two planes through a are alpha apart, and alpha is in
+    // [0, pi], so its sine is the length of their cross product. Then sin and cos of
+    // `sub - alpha` by the difference formulas: one sin_cos, no arc cosine.
     let (n1, n2) = (a.cross(b).normalize(), a.cross(c).normalize());
-    let alpha = n1.dot(n2).clamp(-1.0, 1.0).acos();
+    let cos_alpha = n1.dot(n2).clamp(-1.0, 1.0);
+    let sin_alpha = n1.cross(n2).length().min(1.0);
     let cos_c = a.dot(b);
-    let (sin_alpha, cos_alpha) = alpha.sin_cos();
-    let sub = u1 * area;
-    let (s, t) = (sub - alpha).sin_cos();
+    let (sin_sub, cos_sub) = (u1 * area).sin_cos();
+    let s = sin_sub * cos_alpha - cos_sub * sin_alpha;
+    let t = cos_sub * cos_alpha + sin_sub * sin_alpha;
     let u = t - cos_alpha;
     let v = s + sin_alpha * cos_c;
     let q = ((v * t - u * s) * cos_alpha - v) / ((v * s + u * t) * sin_alpha);
