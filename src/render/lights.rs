@@ -147,64 +147,154 @@ impl LightChoice {
     }
 }
 
-/// The solid angle of the triangle `a b c` seen from the origin, corners relative to it (Van
-/// Oosterom and Strackee, 1983): `tan(Omega / 2) = |a . (b x c)| / (|a||b||c| + (a.b)|c| +
-/// (a.c)|b| + (b.c)|a|)`.
-fn solid_angle(a: [f64; 3], b: [f64; 3], c: [f64; 3]) -> f64 {
-    let dot = |p: [f64; 3], q: [f64; 3]| p[0] * q[0] + p[1] * q[1] + p[2] * q[2];
-    let len = |p: [f64; 3]| dot(p, p).sqrt();
-    let cross = |p: [f64; 3], q: [f64; 3]| {
-        [
-            p[1] * q[2] - p[2] * q[1],
-            p[2] * q[0] - p[0] * q[2],
-            p[0] * q[1] - p[1] * q[0],
-        ]
+/// The two spherical-triangle routines, written once and generated for `f64` (`DVec3`) and for
+/// `f32` (`Vec3`): the light sampler takes `f32` where a triangle subtends enough solid angle for
+/// it ([`F32_MIN`]) and `f64` below.
+///
+/// * `solid_angle(a, b, c)`: the solid angle of the triangle `a b c` seen from the origin, corners
+///   relative to it (Van Oosterom and Strackee, 1983): `tan(Omega / 2) = |a . (b x c)| /
+///   (|a||b||c| + (a.b)|c| + (a.c)|b| + (b.c)|a|)`.
+/// * `arvo(a, b, c, area, u1, u2)`: a direction uniform in the spherical triangle of the unit
+///   vectors `a b c` of solid angle `area` for `u1, u2` in `[0, 1)` (Arvo 1995): `u1` chooses the
+///   sub-triangle `a b c'` of area `u1` times the whole, `u2` the point on the arc from `b` to
+///   `c'`, its `1 - cos` from `b` uniform. `None` when the construction fails in floating point.
+///   The area is the caller's `solid_angle`, which it has for the choice of triangle anyway:
+///   Arvo's own `alpha + beta + gamma - pi` would cost two more arc cosines and cancels where the
+///   triangle is small.
+macro_rules! spherical_triangle {
+    ($solid_angle:ident, $arvo:ident, $v:ty, $f:ty) => {
+        fn $solid_angle(a: $v, b: $v, c: $v) -> $f {
+            let (la, lb, lc) = (a.length(), b.length(), c.length());
+            let num = a.dot(b.cross(c)).abs();
+            let den = la * lb * lc + a.dot(b) * lc + a.dot(c) * lb + b.dot(c) * la;
+            // atan2 keeps the half angle in (0, pi) when the denominator is negative (Omega > pi).
+            2.0 * num.atan2(den)
+        }
+
+        fn $arvo(a: $v, b: $v, c: $v, area: $f, u1: $f, u2: $f) -> Option<$v> {
+            // The angle alpha at a between the great circles to b and to c, through its cosine
+            // and sine alone: the unit normals of the two planes through a are alpha apart, and
+            // alpha is in [0, pi], so its sine is the length of their cross product. Then sin and
+            // cos of `sub - alpha` by the difference formulas: one sin_cos, no arc cosine.
+            let (n1, n2) = (a.cross(b).normalize(), a.cross(c).normalize());
+            let cos_alpha = n1.dot(n2).clamp(-1.0, 1.0);
+            let sin_alpha = n1.cross(n2).length().min(1.0);
+            let cos_c = a.dot(b);
+            let (sin_sub, cos_sub) = (u1 * area).sin_cos();
+            let s = sin_sub * cos_alpha - cos_sub * sin_alpha;
+            let t = cos_sub * cos_alpha + sin_sub * sin_alpha;
+            let u = t - cos_alpha;
+            let v = s + sin_alpha * cos_c;
+            let q = ((v * t - u * s) * cos_alpha - v) / ((v * s + u * t) * sin_alpha);
+            let q = q.clamp(-1.0, 1.0);
+            let c1 = q * a + (1.0 - q * q).max(0.0).sqrt() * (c - c.dot(a) * a).normalize();
+            let z = 1.0 - u2 * (1.0 - c1.dot(b));
+            let w = z * b + (1.0 - z * z).max(0.0).sqrt() * (c1 - c1.dot(b) * b).normalize();
+            w.is_finite().then_some(w)
+        }
     };
-    let (la, lb, lc) = (len(a), len(b), len(c));
-    let num = dot(a, cross(b, c)).abs();
-    let den = la * lb * lc + dot(a, b) * lc + dot(a, c) * lb + dot(b, c) * la;
-    // atan2 keeps the half angle in (0, pi) when the denominator is negative (Omega > pi).
-    2.0 * num.atan2(den)
 }
 
-/// A direction uniform in the spherical triangle of the unit vectors `a b c` of solid angle
-/// `area` for `u1, u2` in `[0, 1)` (Arvo 1995): `u1` chooses the sub-triangle `a b c'` of area
-/// `u1` times the whole, `u2` the point on the arc from `b` to `c'`, its `1 - cos` from `b`
-/// uniform. `None` when the construction fails in floating point. The area is the caller's
-/// [`solid_angle`], which it has for the choice of triangle anyway: Arvo's own `alpha + beta +
-/// gamma - pi` would cost two more arc cosines and cancels where the triangle is small.
-fn arvo(
-    a: glam::DVec3,
-    b: glam::DVec3,
-    c: glam::DVec3,
-    area: f64,
-    u1: f64,
-    u2: f64,
-) -> Option<glam::DVec3> {
-    // The angle alpha at a between the great circles to b and to c, through its cosine and sine
-    // alone: the unit normals of the two planes through a are alpha apart, and alpha is in
-    // [0, pi], so its sine is the length of their cross product. Then sin and cos of
-    // `sub - alpha` by the difference formulas: one sin_cos, no arc cosine.
-    let (n1, n2) = (a.cross(b).normalize(), a.cross(c).normalize());
-    let cos_alpha = n1.dot(n2).clamp(-1.0, 1.0);
-    let sin_alpha = n1.cross(n2).length().min(1.0);
-    let cos_c = a.dot(b);
-    let (sin_sub, cos_sub) = (u1 * area).sin_cos();
-    let s = sin_sub * cos_alpha - cos_sub * sin_alpha;
-    let t = cos_sub * cos_alpha + sin_sub * sin_alpha;
-    let u = t - cos_alpha;
-    let v = s + sin_alpha * cos_c;
-    let q = ((v * t - u * s) * cos_alpha - v) / ((v * s + u * t) * sin_alpha);
-    let q = q.clamp(-1.0, 1.0);
-    let c1 = q * a + (1.0 - q * q).max(0.0).sqrt() * (c - c.dot(a) * a).normalize();
-    let z = 1.0 - u2 * (1.0 - c1.dot(b));
-    let w = z * b + (1.0 - z * z).max(0.0).sqrt() * (c1 - c1.dot(b) * b).normalize();
-    w.is_finite().then_some(w)
-}
+spherical_triangle!(solid_angle, arvo, glam::DVec3, f64);
+spherical_triangle!(solid_angle_f32, arvo_f32, Vec3, f32);
 
 fn luminance(c: Vec3) -> f32 {
     super::scene::luminance(c)
 }
+
+/// The solid-angle sampler of [`Lights::sample_solid_angle`] in one float width (`$v`, `$f`,
+/// with that width's [`spherical_triangle`] routines): `Err(TooNarrow)` when the emitter or the
+/// chosen triangle subtends less than `$narrow` (the caller then takes the wider width).
+macro_rules! solid_angle_sampler {
+    ($name:ident, $solid_angle:ident, $arvo:ident, $v:ty, $f:ty, $narrow:expr) => {
+        fn $name(
+            &self,
+            e: &Emitter,
+            x: Vec3,
+            p_emitter: f32,
+            u: [f32; 3],
+        ) -> Result<Option<Option<LightSample>>, TooNarrow> {
+            let narrow: $f = $narrow;
+            let tris = &self.lights[e.first..e.first + e.count];
+            let xv = <$v>::from(x.to_array().map(<$f>::from));
+            let rel = |p: Vec3| <$v>::from(p.to_array().map(<$f>::from)) - xv;
+            let mut omega: [$f; SOLID_ANGLE_MAX] = [0.0; SOLID_ANGLE_MAX];
+            let mut total: $f = 0.0;
+            for (o, l) in omega.iter_mut().zip(tris) {
+                // One-sided: a triangle x is behind (or in the plane of) sends nothing to x.
+                if l.normal.dot(x - l.corners[0]) > 0.0 {
+                    let [a, b, c] = l.corners.map(rel);
+                    *o = $solid_angle(a, b, c);
+                }
+                total += *o;
+            }
+            if narrow > 0.0 && !(total >= narrow && total.is_finite()) {
+                return Err(TooNarrow);
+            }
+            if !(total > 0.0 && total.is_finite()) {
+                return Ok(None);
+            }
+            let target = <$f>::from(u[0]) * total;
+            let mut acc = 0.0;
+            let mut t = 0;
+            for (k, &o) in omega[..tris.len()].iter().enumerate() {
+                if o > 0.0 {
+                    t = k;
+                    if acc + o > target {
+                        break;
+                    }
+                }
+                acc += o;
+            }
+            if omega[t] < narrow {
+                return Err(TooNarrow);
+            }
+            let l = &tris[t];
+            let p_tri = omega[t] / total;
+            if f64::from(omega[t]) < ARVO_MIN {
+                // Too small for Arvo in floating point: uniform in area inside, density
+                // p_tri / area.
+                let (s, w) = (u[1].sqrt(), u[2]);
+                let [a, b, c] = l.corners;
+                return Ok(Some(Some(LightSample {
+                    point: a * (1.0 - s) + b * (s * (1.0 - w)) + c * (s * w),
+                    normal: l.normal,
+                    emission: l.emission,
+                    pdf_area: p_emitter * (p_tri as f32) / l.area,
+                })));
+            }
+            let [a, b, c] = l.corners.map(|p| rel(p).normalize());
+            let Some(w) = $arvo(a, b, c, omega[t], <$f>::from(u[1]), <$f>::from(u[2])) else {
+                return Ok(Some(None));
+            };
+            // Where the direction meets the triangle's plane.
+            let nl = <$v>::from(l.normal.to_array().map(<$f>::from));
+            let cos_l = nl.dot(w);
+            let dist = nl.dot(rel(l.corners[0])) / cos_l;
+            if !(dist > 0.0 && dist.is_finite()) {
+                return Ok(Some(None));
+            }
+            let point = xv + w * dist;
+            // Per unit solid angle p_emitter * p_tri / omega_t = p_emitter / total; per unit area
+            // times |cos_l| / dist^2.
+            let pdf_area = <$f>::from(p_emitter) * cos_l.abs() / (dist * dist * total);
+            Ok(Some(Some(LightSample {
+                point: Vec3::from(point.to_array().map(|c| c as f32)),
+                normal: l.normal,
+                emission: l.emission,
+                pdf_area: pdf_area as f32,
+            })))
+        }
+    };
+}
+
+/// A solid-angle sample that wants a wider float than the one tried.
+struct TooNarrow;
+
+/// Smallest solid angle (sr) an emitter and the triangle chosen in it subtend for the sampler to
+/// work in `f32`; below, `f64`. At `1e-2` sr the triangle spans about a tenth of a radian, where
+/// `f32`'s rounding (`6e-8`) moves a sampled direction by about `1e-6` of that span.
+pub const F32_MIN: f32 = 1e-2;
 
 impl Lights {
     /// Groups `lights` into emitters. Empty when `lights` is.
@@ -424,7 +514,8 @@ impl Lights {
     /// A point of emitter `e` (chosen with probability `p_emitter`) sampled by solid angle from
     /// `x` (module doc): `u[0]` chooses the triangle, `u[1]` and `u[2]` the direction in it.
     /// `None` when the emitter subtends no measurable solid angle (the caller samples by area);
-    /// `Some(None)` when this one direction failed in floating point.
+    /// `Some(None)` when this one direction failed in floating point. In `f32` when the emitter
+    /// and the chosen triangle subtend at least [`F32_MIN`], else in `f64`.
     fn sample_solid_angle(
         &self,
         e: &Emitter,
@@ -432,68 +523,29 @@ impl Lights {
         p_emitter: f32,
         u: [f32; 3],
     ) -> Option<Option<LightSample>> {
-        let tris = &self.lights[e.first..e.first + e.count];
-        let mut omega = [0.0f64; SOLID_ANGLE_MAX];
-        let mut total = 0.0f64;
-        for (o, l) in omega.iter_mut().zip(tris) {
-            // One-sided: a triangle x is behind (or in the plane of) sends nothing to x.
-            if l.normal.dot(x - l.corners[0]) > 0.0 {
-                let [a, b, c] = l.corners.map(|p| (p - x).as_dvec3().to_array());
-                *o = solid_angle(a, b, c);
-            }
-            total += *o;
-        }
-        if !(total > 0.0 && total.is_finite()) {
-            return None;
-        }
-        let target = f64::from(u[0]) * total;
-        let mut acc = 0.0;
-        let mut t = 0;
-        for (k, &o) in omega[..tris.len()].iter().enumerate() {
-            if o > 0.0 {
-                t = k;
-                if acc + o > target {
-                    break;
-                }
-            }
-            acc += o;
-        }
-        let l = &tris[t];
-        let p_tri = omega[t] / total;
-        if omega[t] < ARVO_MIN {
-            // Too small for Arvo in floating point: uniform in area inside, density p_tri / area.
-            let (s, w) = (u[1].sqrt(), u[2]);
-            let [a, b, c] = l.corners;
-            return Some(Some(LightSample {
-                point: a * (1.0 - s) + b * (s * (1.0 - w)) + c * (s * w),
-                normal: l.normal,
-                emission: l.emission,
-                pdf_area: p_emitter * (p_tri as f32) / l.area,
-            }));
-        }
-        let xd = x.as_dvec3();
-        let [a, b, c] = l.corners.map(|p| (p.as_dvec3() - xd).normalize());
-        let Some(w) = arvo(a, b, c, omega[t], f64::from(u[1]), f64::from(u[2])) else {
-            return Some(None);
-        };
-        // Where the direction meets the triangle's plane.
-        let nl = l.normal.as_dvec3();
-        let cos_l = nl.dot(w);
-        let dist = nl.dot(l.corners[0].as_dvec3() - xd) / cos_l;
-        if !(dist > 0.0 && dist.is_finite()) {
-            return Some(None);
-        }
-        let point = xd + w * dist;
-        // Per unit solid angle p_emitter * p_tri / omega_t = p_emitter / total; per unit area
-        // times |cos_l| / dist^2.
-        let pdf_area = f64::from(p_emitter) * cos_l.abs() / (dist * dist * total);
-        Some(Some(LightSample {
-            point: point.as_vec3(),
-            normal: l.normal,
-            emission: l.emission,
-            pdf_area: pdf_area as f32,
-        }))
+        self.sample_solid_angle_f32(e, x, p_emitter, u)
+            .unwrap_or_else(|TooNarrow| {
+                self.sample_solid_angle_f64(e, x, p_emitter, u)
+                    .unwrap_or_else(|TooNarrow| unreachable!("f64 takes every width"))
+            })
     }
+
+    solid_angle_sampler!(
+        sample_solid_angle_f64,
+        solid_angle,
+        arvo,
+        glam::DVec3,
+        f64,
+        0.0
+    );
+    solid_angle_sampler!(
+        sample_solid_angle_f32,
+        solid_angle_f32,
+        arvo_f32,
+        Vec3,
+        f32,
+        F32_MIN
+    );
 }
 
 #[cfg(test)]
@@ -615,7 +667,10 @@ mod tests {
         let x = Vec3::new(0.1, 0.9, 0.15);
         let c = square.choice(x, Vec3::Y);
         assert!(c.by_solid_angle());
-        let rel = |p: Vec3| (p - x).as_dvec3().to_array();
+        // Over a steradian: the f32 sampler takes it.
+        let e = &square.emitters[0];
+        assert!(square.sample_solid_angle_f32(e, x, 1.0, [0.5; 3]).is_ok());
+        let rel = |p: Vec3| (p - x).as_dvec3();
         let v = Vec3::new;
         let omega_of = |a: Vec3, b: Vec3, cc: Vec3| solid_angle(rel(a), rel(b), rel(cc));
         let total = omega_of(v(0.0, 1.0, 0.0), v(1.0, 1.0, 0.0), v(1.0, 1.0, 1.0))
@@ -657,6 +712,58 @@ mod tests {
             (seen - share).abs() < 0.01,
             "{seen} of the samples in the quarter holding {share} of the solid angle"
         );
+    }
+
+    /// A strip 10 long and 1 mm wide, 0.5 below its middle, subtends about 4e-3 sr: too little
+    /// for the f32 sampler, so f64 samples it, and its samples must be as uniform in solid angle
+    /// as the square's in f32 (the middle metre holds its solid-angle share of them).
+    #[test]
+    fn a_narrow_emitter_is_sampled_in_f64_uniformly_in_solid_angle() {
+        let v = Vec3::new;
+        let (w, len) = (1e-3f32, 10.0f32);
+        let strip = |x0: f32, x1: f32| {
+            [
+                tri(v(x0, 1.0, 0.0), v(x1, 1.0, 0.0), v(x1, 1.0, w), 1.0),
+                tri(v(x0, 1.0, 0.0), v(x1, 1.0, w), v(x0, 1.0, w), 1.0),
+            ]
+        };
+        let lights = Lights::new(strip(0.0, len).to_vec());
+        let x = v(0.5 * len, 0.5, 0.5 * w);
+        let c = lights.choice(x, Vec3::Y);
+        assert!(c.by_solid_angle());
+        let e = &lights.emitters[0];
+        assert!(lights.sample_solid_angle_f32(e, x, 1.0, [0.5; 3]).is_err());
+        let omega = |t: [Light; 2]| {
+            t.iter()
+                .map(|l| {
+                    let [a, b, cc] = l.corners.map(|p| (p - x).as_dvec3());
+                    solid_angle(a, b, cc)
+                })
+                .sum::<f64>()
+        };
+        let total = omega(strip(0.0, len));
+        assert!(total > 1e-3 && total < f64::from(F32_MIN), "{total} sr");
+        let share = omega(strip(4.5, 5.5)) / total;
+        let n = 64;
+        let mut inside = 0usize;
+        for (i, j) in (0..n).flat_map(|i| (0..n).map(move |j| (i, j))) {
+            for k in 0..4 {
+                let u = [
+                    (k as f32 + 0.5) / 4.0,
+                    (i as f32 + 0.5) / n as f32,
+                    (j as f32 + 0.5) / n as f32,
+                ];
+                let s = lights.sample(&c, u).expect("the strip lights x");
+                assert!(s.point.x > -1e-4 && s.point.x < len + 1e-4, "{:?}", s.point);
+                inside += usize::from((4.5..5.5).contains(&s.point.x));
+                let d = s.point - x;
+                let per_sr = f64::from(s.pdf_area) * f64::from(d.length_squared())
+                    / f64::from(s.normal.dot(d.normalize()).abs());
+                assert!((per_sr * total - 1.0).abs() < 1e-3, "{per_sr} per sr");
+            }
+        }
+        let seen = inside as f64 / (4 * n * n) as f64;
+        assert!((seen - share).abs() < 0.01, "{seen} against {share}");
     }
 
     #[test]
@@ -726,7 +833,7 @@ mod tests {
         let x = Vec3::new(0.6, 0.9, 0.3);
         let c = lights.choice(x, Vec3::Y);
         assert!(c.by_solid_angle());
-        let rel = |p: Vec3| (p - x).as_dvec3().to_array();
+        let rel = |p: Vec3| (p - x).as_dvec3();
         let omega =
             |l: &Light| solid_angle(rel(l.corners[0]), rel(l.corners[1]), rel(l.corners[2]));
         let tris = lights.triangles();
