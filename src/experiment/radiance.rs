@@ -26,7 +26,7 @@
 //! emitter, and the mean relative error over the same pixels.
 //!
 //! The equal-error search sweeps wfic's accuracy at 2, 4/3, 1 and 2/3 times the matched one,
-//! its rays per record at 1/2, 5/8, 3/4, 7/8, 1, 5/4, 3/2 and 2 times (the smoke run: 1/2, 3/4,
+//! its rays per record at 1/2, 9/16, 5/8, 3/4, 7/8, 1, 5/4, 3/2 and 2 times (the smoke run: 1/2, 3/4,
 //! 1, 3/2, 2), its lower radius clamp at 6 and 12 pixel footprints, and its smoothing at 1 and 1.5
 //! ([`RenderSettings::smoothing`]: the same records, each pixel interpolating those valid at
 //! `1.5 a`), at 2 threads. Each worker count's pick is the cheapest run at or below
@@ -79,11 +79,13 @@ pub struct RadianceConfig {
     /// hemisphere noise, so fewer records of more rays can be both cheaper and more accurate.
     pub sweep_accuracy_scales: Vec<f32>,
     /// The rays per record of the sweep as multiples of `rays`. Steps of an eighth around the
-    /// matched count: with steps of a half, the cheapest setting at Radiance's error could be
-    /// half as dear again as one just beside it (Sponza's a 0.2, N 512 erred 1.99% against
-    /// Radiance's 1.98%, and the next one swept cost 35% more).
+    /// matched count, a sixteenth at the low end: with steps of a half, the cheapest setting at
+    /// Radiance's error could be half as dear again as one just beside it (Sponza's a 0.2, N 512
+    /// erred 1.99% against Radiance's 1.98%, and the next one swept cost 35% more); smoothed,
+    /// Sponza reaches Radiance's error between 9/16 and 5/8 of the matched count.
     pub sweep_rays_scales: Vec<f32>,
-    /// The light-sample counts of the image-noise study.
+    /// The light-sample counts of the image-noise study: from 1, so the smallest count whose
+    /// image noise is at or below Radiance's is found, not only bounded.
     pub light_sweep: Vec<u32>,
     /// Light samples of the converged reference.
     pub converged_light_samples: u32,
@@ -119,10 +121,10 @@ impl RadianceConfig {
             resolution: 128,
             light_samples: 8,
             sweep_accuracy_scales: vec![2.0, 4.0 / 3.0, 1.0, 2.0 / 3.0],
-            sweep_rays_scales: vec![0.5, 0.625, 0.75, 0.875, 1.0, 1.25, 1.5, 2.0],
+            sweep_rays_scales: vec![0.5, 0.5625, 0.625, 0.75, 0.875, 1.0, 1.25, 1.5, 2.0],
             sweep_min_radius: vec![6.0, 12.0],
             sweep_smoothing: vec![1.0, 1.5],
-            light_sweep: vec![8, 16, 32, 64, 128],
+            light_sweep: vec![1, 2, 4, 8, 16, 32, 64, 128],
             converged_light_samples: 256,
             reference_stride: 4,
             keep_work: false,
