@@ -659,6 +659,39 @@ mod tests {
         assert!(far.sample(&side, [0.5, 0.5, 0.5]).is_none());
     }
 
+    /// Samples of `lights` from `x` under `c` on a stratified grid of `u` (4 choices of triangle
+    /// times `n x n` directions), each held to the density `1 / total` per steradian that
+    /// sampling uniform in a solid angle of `total` gives.
+    fn stratified_samples(
+        lights: &Lights,
+        c: &LightChoice,
+        x: Vec3,
+        total: f64,
+        n: usize,
+    ) -> Vec<LightSample> {
+        let mut out = Vec::with_capacity(4 * n * n);
+        for (i, j) in (0..n).flat_map(|i| (0..n).map(move |j| (i, j))) {
+            for k in 0..4 {
+                let u = [
+                    (k as f32 + 0.5) / 4.0,
+                    (i as f32 + 0.5) / n as f32,
+                    (j as f32 + 0.5) / n as f32,
+                ];
+                let s = lights.sample(c, u).expect("the emitter lights x");
+                let d = s.point - x;
+                let per_sr = f64::from(s.pdf_area) * f64::from(d.length_squared())
+                    / f64::from(s.normal.dot(d.normalize()).abs());
+                assert!(
+                    (per_sr * total - 1.0).abs() < 1e-3,
+                    "density {per_sr} per sr, expected {}",
+                    1.0 / total
+                );
+                out.push(s);
+            }
+        }
+        out
+    }
+
     #[test]
     fn solid_angle_samples_are_uniform_over_the_emitter() {
         // Close under a corner of the unit square: by area, the samples would crowd the far
@@ -680,34 +713,17 @@ mod tests {
             + omega_of(v(0.0, 1.0, 0.0), v(0.5, 1.0, 0.5), v(0.0, 1.0, 0.5));
         let share = quarter / total;
         assert!(share > 0.5, "{share}");
-        let n = 96;
-        let mut inside = 0usize;
-        for i in 0..n {
-            for j in 0..n {
-                for k in 0..4 {
-                    let u = [
-                        (k as f32 + 0.5) / 4.0,
-                        (i as f32 + 0.5) / n as f32,
-                        (j as f32 + 0.5) / n as f32,
-                    ];
-                    let s = square.sample(&c, u).expect("the square lights x");
-                    assert!((s.point.y - 1.0).abs() < 1e-5, "{:?}", s.point);
-                    assert!(s.point.x > -1e-5 && s.point.x < 1.0 + 1e-5, "{:?}", s.point);
-                    assert!(s.point.z > -1e-5 && s.point.z < 1.0 + 1e-5, "{:?}", s.point);
-                    inside += usize::from(s.point.x < 0.5 && s.point.z < 0.5);
-                    // The density per unit solid angle is 1 / total everywhere.
-                    let d = s.point - x;
-                    let per_sr = f64::from(s.pdf_area) * f64::from(d.length_squared())
-                        / f64::from(s.normal.dot(d.normalize()).abs());
-                    assert!(
-                        (per_sr * total - 1.0).abs() < 1e-3,
-                        "density {per_sr} per sr, expected {}",
-                        1.0 / total
-                    );
-                }
-            }
+        let samples = stratified_samples(&square, &c, x, total, 96);
+        for s in &samples {
+            assert!((s.point.y - 1.0).abs() < 1e-5, "{:?}", s.point);
+            assert!(s.point.x > -1e-5 && s.point.x < 1.0 + 1e-5, "{:?}", s.point);
+            assert!(s.point.z > -1e-5 && s.point.z < 1.0 + 1e-5, "{:?}", s.point);
         }
-        let seen = inside as f64 / (4 * n * n) as f64;
+        let inside = samples
+            .iter()
+            .filter(|s| s.point.x < 0.5 && s.point.z < 0.5)
+            .count();
+        let seen = inside as f64 / samples.len() as f64;
         assert!(
             (seen - share).abs() < 0.01,
             "{seen} of the samples in the quarter holding {share} of the solid angle"
@@ -744,25 +760,15 @@ mod tests {
         let total = omega(strip(0.0, len));
         assert!(total > 1e-3 && total < f64::from(F32_MIN), "{total} sr");
         let share = omega(strip(4.5, 5.5)) / total;
-        let n = 64;
-        let mut inside = 0usize;
-        for (i, j) in (0..n).flat_map(|i| (0..n).map(move |j| (i, j))) {
-            for k in 0..4 {
-                let u = [
-                    (k as f32 + 0.5) / 4.0,
-                    (i as f32 + 0.5) / n as f32,
-                    (j as f32 + 0.5) / n as f32,
-                ];
-                let s = lights.sample(&c, u).expect("the strip lights x");
-                assert!(s.point.x > -1e-4 && s.point.x < len + 1e-4, "{:?}", s.point);
-                inside += usize::from((4.5..5.5).contains(&s.point.x));
-                let d = s.point - x;
-                let per_sr = f64::from(s.pdf_area) * f64::from(d.length_squared())
-                    / f64::from(s.normal.dot(d.normalize()).abs());
-                assert!((per_sr * total - 1.0).abs() < 1e-3, "{per_sr} per sr");
-            }
+        let samples = stratified_samples(&lights, &c, x, total, 64);
+        for s in &samples {
+            assert!(s.point.x > -1e-4 && s.point.x < len + 1e-4, "{:?}", s.point);
         }
-        let seen = inside as f64 / (4 * n * n) as f64;
+        let inside = samples
+            .iter()
+            .filter(|s| (4.5..5.5).contains(&s.point.x))
+            .count();
+        let seen = inside as f64 / samples.len() as f64;
         assert!((seen - share).abs() < 0.01, "{seen} against {share}");
     }
 
