@@ -179,6 +179,25 @@ fn smoothing_keeps_the_records_and_widens_the_average() {
     assert_ne!(plain.image, smooth.image, "pixels average more records");
     // Lookups find more at the wider accuracy: some that found records still compute one.
     assert!(smooth.stats.hits > plain.stats.hits);
+    // The cache answers at k a, over the scene's bounds enlarged by 1% of its diagonal a side.
+    let config = settings
+        .clone()
+        .smoothing(1.5)
+        .cache_config(&scene)
+        .unwrap();
+    assert!(
+        (config.accuracy() - 0.3).abs() < 1e-6,
+        "{}",
+        config.accuracy()
+    );
+    let (lo, hi) = scene.bounds();
+    let side = (hi - lo).max_element() + 2.0 * 0.01 * scene.diagonal();
+    let half = config.root().half / 1.01;
+    assert!(
+        (half - 0.5 * side).abs() < 1e-5 * side,
+        "{half} against {}",
+        0.5 * side
+    );
     let e = settings
         .clone()
         .smoothing(0.5)
