@@ -554,6 +554,16 @@ fn the_cli_writes_every_output_and_refuses_bad_input() {
     let e = run_render(rough).unwrap_err();
     assert_eq!(e.exit_code(), 2);
     assert!(e.to_string().contains("--smoothing 0.5"), "{e}");
+    // The bound is on the product k a, the accuracy lookups answer at: 1.5 x 1 renders, 1.5 x 1.5
+    // is refused by name.
+    let mut wide = args(&dir);
+    (wide.smoothing, wide.accuracy) = (1.5, 1.0);
+    run_render(wide).expect("k a = 1.5 is a valid accuracy");
+    let mut too_wide = args(&dir);
+    (too_wide.smoothing, too_wide.accuracy) = (1.5, 1.5);
+    let e = run_render(too_wide).unwrap_err();
+    assert_eq!(e.exit_code(), 2);
+    assert!(e.to_string().contains("--smoothing 1.5"), "{e}");
     let mut empty = args(&dir);
     empty.width = 0;
     assert_eq!(run_render(empty).unwrap_err().exit_code(), 2);
