@@ -427,6 +427,7 @@ impl<'a> PixelIntegrator<'a> {
         settings: &'a RenderSettings,
         accuracy: f32,
     ) -> Self {
+        let placed = accuracy / settings.smoothing;
         Self {
             scene,
             view: camera.view(settings.width, settings.height),
@@ -434,8 +435,8 @@ impl<'a> PixelIntegrator<'a> {
             strata: settings.strata(),
             eps: 1e-4 * scene.diagonal(),
             diagonal: scene.diagonal(),
-            accuracy: accuracy / settings.smoothing,
-            reuse_weight: 1.0 / f64::from(accuracy / settings.smoothing),
+            accuracy: placed,
+            reuse_weight: 1.0 / f64::from(placed),
         }
     }
 

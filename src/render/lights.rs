@@ -25,7 +25,8 @@
 //! hemisphere hits under its ceiling panels needed 16 of them. An emitter of at most
 //! [`SOLID_ANGLE_MAX`] triangles is sampled by solid angle there instead: a triangle with
 //! probability proportional to the solid angle it subtends (Van Oosterom and Strackee's formula,
-//! in f64; zero for a triangle `x` is behind), then a direction uniform in that spherical
+//! in f32 where the emitter and the chosen triangle subtend at least [`F32_MIN`], else in f64;
+//! zero for a triangle `x` is behind), then a direction uniform in that spherical
 //! triangle (Arvo, "Stratified sampling of spherical triangles", SIGGRAPH 1995), and the point
 //! where it meets the triangle. The density per unit area is `p_emitter |cos_l| / (s^2 Omega)`
 //! (`Omega` the emitter's solid angle, `s` the distance), so a sample's contribution is
