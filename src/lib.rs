@@ -26,17 +26,13 @@
 #![deny(unsafe_op_in_unsafe_fn)]
 
 pub mod cache;
-#[cfg(all(feature = "renderer", not(checker)))]
-pub mod experiment;
 pub mod ic;
 pub mod lincheck;
-#[cfg(all(feature = "renderer", not(checker)))]
-pub mod render;
 pub mod rng;
 pub mod sync;
 pub mod workload;
 
 /// The README's example, compiled and run as a doctest.
 #[doc = include_str!("../README.md")]
-#[cfg(all(doctest, feature = "renderer", not(checker)))]
+#[cfg(all(doctest, not(checker)))]
 pub struct ReadmeDoctests;

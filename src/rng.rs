@@ -1,7 +1,7 @@
 //! The crate's one random-number generator: SplitMix64 (Steele, Lea and Flood, "Fast splittable
 //! pseudorandom number generators", OOPSLA 2014). Small, fast, deterministic and seedable; not
 //! cryptographic, ample for Monte Carlo and for test and benchmark data. The renderer derives
-//! one stream per pixel, sample and purpose from it (`render::sampler`); the synthetic workload,
+//! one stream per pixel, sample and purpose from it (the renderer's `sampler`); the synthetic workload,
 //! the benchmarks and the tests draw their data from it.
 
 /// SplitMix64's finaliser: a bijective 64-bit mix with good avalanche.
@@ -29,9 +29,7 @@ impl Rng {
     }
 
     /// The current state (the next output is `mix64(state + GAMMA)`), for deriving streams.
-    // Only the renderer derives streams: it is not built under the model checkers or without its feature.
-    #[cfg_attr(any(checker, not(feature = "renderer")), allow(dead_code))]
-    pub(crate) const fn state(&self) -> u64 {
+    pub const fn state(&self) -> u64 {
         self.state
     }
 

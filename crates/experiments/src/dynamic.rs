@@ -1,0 +1,1160 @@
+//! `wfic reproduce dynamic`: a scene that moves, and what removal buys (issue 13; the paper's
+//! §5.1 future work).
+//!
+//! `cornell-moving` slides the Cornell box's short block across the floor over the animation
+//! ([`scenes::cornell_moving`]); the camera stays. Each scheme renders every frame five ways:
+//!
+//! * **removal**: one cache for the whole animation; at the start of each frame after the first,
+//!   worker 0 removes, through its handle and while the other workers already shade, the records
+//!   whose light the block changed by more than the cache's accuracy since they were computed
+//!   ([`Selection::moving`]: a margin around the block that grows with how far it has moved
+//!   since each record's frame); the rest are reused. (LW's removal of global records lands at
+//!   its merge, so LW renders that frame with the stale records.)
+//! * **removal-near**: every frame, the records whose influence sphere, grown by the distance
+//!   within which the block fills more than the cache's accuracy of a point's view
+//!   ([`Selection::near`]), meets its last and its new place, however recently computed.
+//! * **removal-local**: the same with the influence spheres alone ([`Selection::touching`]): the
+//!   records whose valid region the block entered or left, not those it lights or shadows from
+//!   beside them.
+//! * **fresh**: a new, empty cache every frame (correct, and as slow as a still image).
+//! * **stale**: one cache, nothing removed (records keep the light of the block's old place).
+//!
+//! The removal mode runs `passes` times per scheme, the schemes interleaved, and each frame's
+//! time is the median of its passes (the comparison of schemes frame by frame needs it: WF and
+//! LCK differ by a few percent at 2 threads).
+//!
+//! Every frame is measured against a brute-force rendering of that frame (scheme `none`, the
+//! same seed and light samples, so the error is what the cache interpolates and what it kept):
+//! relative RMSE of luminance over the pixels that see a non-emitting surface.
+
+use super::plot::{Figure, Line, Panel};
+use super::radiance::image_error;
+use super::{write_file, Machine};
+use wfic::cache::{CacheJob, IrradianceCache, Scheme};
+use wfic::ic::Selection;
+use wfic_render::film::Image;
+use wfic_render::parallel::{render_frame_removing, render_reference};
+use wfic_render::scenes::{self, short_block_bounds, CORNELL_SLIDE};
+use wfic_render::{RenderSettings, Scene};
+use std::fmt::Write as _;
+use std::path::Path;
+
+/// The only scene this experiment knows.
+pub const SCENE: &str = "cornell-moving";
+
+/// What to run.
+#[derive(Clone, Debug, PartialEq)]
+pub struct DynamicConfig {
+    /// Scene name ([`SCENE`]).
+    pub scene: String,
+    /// Frames over the block's slide (at least 2).
+    pub frames: usize,
+    /// Threads of the parallel schemes (TRA always runs on one).
+    pub threads: usize,
+    /// Schemes, in table order.
+    pub schemes: Vec<Scheme>,
+    /// Image size and sampling.
+    pub settings: RenderSettings,
+    /// Times the removal mode is rendered per scheme (each frame's time is their median).
+    pub passes: usize,
+    /// Further tolerances of [`Mode::Removal`]'s selection, as multiples of the accuracy `a`
+    /// (the main run's is `a`), each rendered `passes` times with WF (or the last scheme).
+    pub sweep: Vec<f32>,
+}
+
+impl DynamicConfig {
+    /// Threads `scheme` runs on.
+    pub fn threads_of(&self, scheme: Scheme) -> usize {
+        if scheme == Scheme::Tra {
+            1
+        } else {
+            self.threads
+        }
+    }
+}
+
+/// How a scheme's cache lives through the animation.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Mode {
+    /// One cache; the records the block's motion since their frame changed by more than the
+    /// accuracy are removed each frame ([`Selection::moving`]).
+    Removal,
+    /// One cache; the records near the moved block's swept bounds are removed each frame
+    /// ([`Selection::near`]).
+    RemovalNear,
+    /// One cache; the records whose influence sphere meets the swept bounds are removed.
+    RemovalLocal,
+    /// A new cache every frame.
+    Fresh,
+    /// One cache, nothing removed.
+    Stale,
+}
+
+impl Mode {
+    /// All five, in table order.
+    pub const ALL: [Mode; 5] = [
+        Mode::Removal,
+        Mode::RemovalNear,
+        Mode::RemovalLocal,
+        Mode::Fresh,
+        Mode::Stale,
+    ];
+
+    /// The name tables and the CSV use.
+    pub fn name(self) -> &'static str {
+        match self {
+            Mode::Removal => "removal",
+            Mode::RemovalNear => "removal-near",
+            Mode::RemovalLocal => "removal-local",
+            Mode::Fresh => "fresh",
+            Mode::Stale => "stale",
+        }
+    }
+}
+
+/// One frame of one scheme in one mode.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Row {
+    /// Scheme.
+    pub scheme: Scheme,
+    /// Mode.
+    pub mode: Mode,
+    /// Threads.
+    pub threads: usize,
+    /// Frame number (0 is the first, from an empty cache in every mode).
+    pub frame: usize,
+    /// Wall-clock seconds (the removal included): the median of the passes.
+    pub seconds: f64,
+    /// The fastest and the slowest pass.
+    pub seconds_range: (f64, f64),
+    /// Passes timed.
+    pub passes: usize,
+    /// Irradiance records computed.
+    pub ic_samples: u64,
+    /// Records removed in the frame.
+    pub removed: u64,
+    /// Records alive after the frame.
+    pub records: usize,
+    /// Octree nodes after the frame.
+    pub nodes: usize,
+    /// Relative RMSE of luminance against the frame's brute-force image.
+    pub error: f64,
+}
+
+impl Row {
+    /// An estimate of the cache's memory after the frame: 160 bytes a record (its 128-byte body
+    /// and its 32-byte key and flag) and 88 a node (WF's node; the arena octrees' are smaller).
+    pub fn bytes(&self) -> usize {
+        self.records * 160 + self.nodes * 88
+    }
+}
+
+/// A finished run.
+#[derive(Clone, Debug)]
+pub struct Dynamic {
+    /// What was run.
+    pub config: DynamicConfig,
+    /// Where.
+    pub machine: Machine,
+    /// Every frame of every scheme and mode.
+    pub rows: Vec<Row>,
+    /// Seconds spent on the brute-force references (not part of any row).
+    pub reference_seconds: f64,
+    /// The margin of [`Mode::RemovalNear`]'s selection (metres), the largest of
+    /// [`Mode::Removal`]'s.
+    pub margin: f32,
+    /// For the strip: WF's (or the last scheme's) frames with removal and stale, and the
+    /// references, at a few frames.
+    pub strip: Vec<(usize, Image, Image, Image)>,
+    /// The scheme of the strip and the sweep.
+    pub strip_scheme: Scheme,
+    /// The tolerance sweep: each further tolerance of [`Mode::Removal`] with its frames.
+    pub sweep: Vec<(f32, Vec<Row>)>,
+}
+
+/// The block's place at frame `i` of `frames`, as the animation's `t`.
+fn t_of(i: usize, frames: usize) -> f32 {
+    i as f32 / (frames - 1) as f32
+}
+
+/// The pixels that see a non-emitting surface through `settings`' pixel centres.
+fn surface_mask(scene: &Scene, settings: &RenderSettings) -> Vec<bool> {
+    let view = scene.camera().view(settings.width, settings.height);
+    let mut mask = Vec::with_capacity((settings.width * settings.height) as usize);
+    for y in 0..settings.height {
+        for x in 0..settings.width {
+            let d = view.direction(x as f32 + 0.5, y as f32 + 0.5);
+            mask.push(
+                scene
+                    .intersect(view.eye(), d, f32::INFINITY)
+                    .is_some_and(|h| !h.material.is_emissive()),
+            );
+        }
+    }
+    mask
+}
+
+/// Renders the animation with one scheme's caches in one mode.
+struct Animate<'a> {
+    /// Every frame's scene; this job renders `frames` of them.
+    scenes: &'a [Scene],
+    frames: std::ops::Range<usize>,
+    references: &'a [Image],
+    masks: &'a [Vec<bool>],
+    settings: &'a RenderSettings,
+    scheme: Scheme,
+    mode: Mode,
+    threads: usize,
+    progress: &'a mut dyn FnMut(&str),
+    keep: &'a [usize],
+    /// [`Selection::near`]'s margin for [`Mode::RemovalNear`].
+    margin: f32,
+    /// [`Selection::moving`]'s tolerance for [`Mode::Removal`].
+    tolerance: f32,
+}
+
+impl Animate<'_> {
+    /// What frame `i` of `n` removes in this job's mode, if anything.
+    fn selection(&self, i: usize, n: usize) -> Option<Selection> {
+        if i == 0 {
+            return None;
+        }
+        let (a_lo, a_hi) = short_block_bounds(CORNELL_SLIDE * t_of(i - 1, n));
+        let (b_lo, b_hi) = short_block_bounds(CORNELL_SLIDE * t_of(i, n));
+        let (lo, hi) = (a_lo.min(b_lo), a_hi.max(b_hi));
+        let ok = "the block's bounds are finite and ordered, the margin and step finite";
+        match self.mode {
+            Mode::Removal => Some(
+                Selection::moving(
+                    b_lo,
+                    b_hi,
+                    CORNELL_SLIDE / (n - 1) as f32,
+                    u16::try_from(i).unwrap_or(u16::MAX),
+                    self.tolerance,
+                )
+                .expect(ok),
+            ),
+            Mode::RemovalNear => Some(Selection::near(lo, hi, self.margin).expect(ok)),
+            Mode::RemovalLocal => Some(Selection::touching(lo, hi).expect(ok)),
+            Mode::Fresh | Mode::Stale => None,
+        }
+    }
+}
+
+impl CacheJob for Animate<'_> {
+    type Output = (Vec<Row>, Vec<Image>);
+
+    fn run<C: IrradianceCache>(self, mut cache: C) -> Self::Output {
+        let n = self.scenes.len();
+        let mut rows = Vec::with_capacity(self.frames.len());
+        let mut kept = Vec::new();
+        for i in self.frames.clone() {
+            let scene = &self.scenes[i];
+            (self.progress)(&format!(
+                "{} {} frame {}/{n}",
+                self.scheme.name(),
+                self.mode.name(),
+                i + 1
+            ));
+            let removal = self.selection(i, n);
+            let camera = scene.camera();
+            let out = render_frame_removing(
+                scene,
+                &camera,
+                self.settings,
+                &mut cache,
+                self.threads,
+                removal.as_ref(),
+            );
+            let stats = cache.stats();
+            rows.push(Row {
+                scheme: self.scheme,
+                mode: self.mode,
+                threads: self.threads,
+                frame: i,
+                seconds: out.stats.seconds,
+                seconds_range: (out.stats.seconds, out.stats.seconds),
+                passes: 1,
+                ic_samples: out.stats.ic_samples,
+                removed: out.stats.removed,
+                records: stats.records,
+                nodes: stats.nodes,
+                error: image_error(&out.image, &self.references[i], &self.masks[i]).rel_rmse,
+            });
+            if self.keep.contains(&i) {
+                kept.push(out.image);
+            }
+        }
+        (rows, kept)
+    }
+}
+
+/// Runs the experiment; `progress(label)` is called before every frame.
+pub fn run(
+    config: &DynamicConfig,
+    machine: &Machine,
+    progress: &mut dyn FnMut(&str),
+) -> Result<Dynamic, String> {
+    if config.scene != SCENE {
+        return Err(format!(
+            "reproduce dynamic: unknown scene {:?}; the one moving scene is {SCENE:?}",
+            config.scene
+        ));
+    }
+    if config.frames < 2 {
+        return Err(format!(
+            "reproduce dynamic: --frames {} is too few: removal needs a frame after the first",
+            config.frames
+        ));
+    }
+    if config.threads == 0 || config.schemes.is_empty() {
+        return Err("reproduce dynamic: --threads and --schemes must not be empty".to_owned());
+    }
+    if config.passes == 0 {
+        return Err("reproduce dynamic: --passes 0 times nothing; give 1 or more".to_owned());
+    }
+    if let Some(k) = config.sweep.iter().find(|k| !(k.is_finite() && **k > 0.0)) {
+        return Err(format!(
+            "reproduce dynamic: --sweep {k} is no tolerance: give multiples of the accuracy above 0"
+        ));
+    }
+    if config.schemes.contains(&Scheme::None) {
+        return Err("reproduce dynamic: `none` keeps no records; it is every frame's reference, always rendered".to_owned());
+    }
+    let n = config.frames;
+    let scenes: Vec<Scene> = (0..n)
+        .map(|i| scenes::cornell_moving(t_of(i, n)).map_err(|e| e.to_string()))
+        .collect::<Result<_, _>>()?;
+    // The block moves inside the box: one cache configuration (the box's bounds) fits every
+    // frame.
+    let cache_config = config
+        .settings
+        .cache_config(&scenes[0])
+        .map_err(|e| e.to_string())?;
+    let start = std::time::Instant::now();
+    let mut references = Vec::with_capacity(n);
+    for (i, scene) in scenes.iter().enumerate() {
+        progress(&format!("reference frame {}/{n}", i + 1));
+        let camera = scene.camera();
+        references.push(
+            render_reference(
+                scene,
+                &camera,
+                &config.settings,
+                cache_config,
+                config.threads,
+            )
+            .image,
+        );
+    }
+    let reference_seconds = start.elapsed().as_secs_f64();
+    let masks: Vec<Vec<bool>> = scenes
+        .iter()
+        .map(|s| surface_mask(s, &config.settings))
+        .collect();
+    // The margin within which the block, seen face on, fills more than the cache's accuracy of a
+    // point's view: `sqrt(A / (pi a))` for the largest face of its bounds.
+    let (lo, hi) = short_block_bounds(glam::Vec3::ZERO);
+    let e = hi - lo;
+    let face = (e.x * e.y).max(e.y * e.z).max(e.x * e.z);
+    let margin = (face / (std::f32::consts::PI * config.settings.accuracy)).sqrt();
+    let keep: Vec<usize> = {
+        let mut k: Vec<usize> = (0..4).map(|j| j * (n - 1) / 3).collect();
+        k.dedup();
+        k
+    };
+    let strip_scheme = if config.schemes.contains(&Scheme::Wf) {
+        Scheme::Wf
+    } else {
+        *config.schemes.last().expect("not empty")
+    };
+    let mut rows = Vec::new();
+    let (mut with_removal, mut stale) = (Vec::new(), Vec::new());
+    for &scheme in &config.schemes {
+        for mode in Mode::ALL {
+            // One cache for the whole animation, or (fresh) a new one for every frame.
+            let spans: Vec<std::ops::Range<usize>> = match mode {
+                Mode::Fresh => (0..n).map(|i| i..i + 1).collect(),
+                Mode::Removal | Mode::RemovalNear | Mode::RemovalLocal | Mode::Stale => {
+                    std::iter::once(0..n).collect()
+                }
+            };
+            let mut kept = Vec::new();
+            for frames in spans {
+                let (r, k) = scheme.build(
+                    cache_config,
+                    Animate {
+                        scenes: &scenes,
+                        frames,
+                        references: &references,
+                        masks: &masks,
+                        settings: &config.settings,
+                        scheme,
+                        mode,
+                        threads: config.threads_of(scheme),
+                        progress: &mut *progress,
+                        keep: &keep,
+                        margin,
+                        tolerance: config.settings.accuracy,
+                    },
+                );
+                rows.extend(r);
+                kept.extend(k);
+            }
+            if scheme == strip_scheme {
+                match mode {
+                    Mode::Removal => with_removal = kept,
+                    Mode::Stale => stale = kept,
+                    Mode::RemovalNear | Mode::RemovalLocal | Mode::Fresh => {}
+                }
+            }
+        }
+    }
+    // The removal mode's further passes, the schemes interleaved so that a slow spell of the
+    // machine falls on all of them: only their times are kept.
+    let mut times: std::collections::HashMap<(Scheme, usize), Vec<f64>> =
+        std::collections::HashMap::new();
+    for r in rows.iter().filter(|r| r.mode == Mode::Removal) {
+        times
+            .entry((r.scheme, r.frame))
+            .or_default()
+            .push(r.seconds);
+    }
+    let removal = |scheme: Scheme, tolerance: f32, progress: &mut dyn FnMut(&str)| {
+        scheme
+            .build(
+                cache_config,
+                Animate {
+                    scenes: &scenes,
+                    frames: 0..n,
+                    references: &references,
+                    masks: &masks,
+                    settings: &config.settings,
+                    scheme,
+                    mode: Mode::Removal,
+                    threads: config.threads_of(scheme),
+                    progress,
+                    keep: &[],
+                    margin,
+                    tolerance,
+                },
+            )
+            .0
+    };
+    for _ in 1..config.passes {
+        for &scheme in &config.schemes {
+            for r in removal(scheme, config.settings.accuracy, &mut *progress) {
+                times
+                    .entry((r.scheme, r.frame))
+                    .or_default()
+                    .push(r.seconds);
+            }
+        }
+    }
+    for r in rows.iter_mut().filter(|r| r.mode == Mode::Removal) {
+        take_median(r, &times[&(r.scheme, r.frame)]);
+    }
+    // The tolerance sweep: each tolerance's passes back to back, frame times their median.
+    let mut sweep = Vec::with_capacity(config.sweep.len());
+    for &k in &config.sweep {
+        let tolerance = k * config.settings.accuracy;
+        let mut runs: Vec<Vec<Row>> = (0..config.passes)
+            .map(|_| removal(strip_scheme, tolerance, &mut *progress))
+            .collect();
+        let mut first = runs.swap_remove(0);
+        for r in &mut first {
+            let mut t = vec![r.seconds];
+            t.extend(runs.iter().map(|run| run[r.frame].seconds));
+            take_median(r, &t);
+        }
+        sweep.push((tolerance, first));
+    }
+    let strip = keep
+        .iter()
+        .zip(with_removal.into_iter().zip(stale))
+        .map(|(&i, (a, c))| (i, a, c, references[i].clone()))
+        .collect();
+    Ok(Dynamic {
+        config: config.clone(),
+        machine: machine.clone(),
+        rows,
+        reference_seconds,
+        margin,
+        strip,
+        strip_scheme,
+        sweep,
+    })
+}
+
+/// Sets `row`'s seconds to the median of `times`, and its range and passes.
+fn take_median(row: &mut Row, times: &[f64]) {
+    let mut t = times.to_vec();
+    t.sort_by(f64::total_cmp);
+    row.seconds = t[t.len() / 2];
+    row.seconds_range = (t[0], t[t.len() - 1]);
+    row.passes = t.len();
+}
+
+/// Mean of `f` over the rows of `scheme` in `mode` after frame 0.
+fn mean_after_first(rows: &[Row], scheme: Scheme, mode: Mode, f: impl Fn(&Row) -> f64) -> f64 {
+    let v: Vec<f64> = rows
+        .iter()
+        .filter(|r| r.scheme == scheme && r.mode == mode && r.frame > 0)
+        .map(f)
+        .collect();
+    v.iter().sum::<f64>() / v.len().max(1) as f64
+}
+
+impl Dynamic {
+    fn rows_of(&self, scheme: Scheme, mode: Mode) -> impl Iterator<Item = &Row> {
+        self.rows
+            .iter()
+            .filter(move |r| r.scheme == scheme && r.mode == mode)
+    }
+
+    fn star(&self, threads: usize) -> &'static str {
+        if self.machine.oversubscribed(threads) {
+            "*"
+        } else {
+            ""
+        }
+    }
+
+    /// `dynamic.csv`: one row per scheme, mode and frame.
+    pub fn csv(&self) -> String {
+        let mut out = String::from(
+            "scene,scheme,mode,threads,cores,oversubscribed,width,height,frame,seconds,\
+             seconds_min,seconds_max,passes,ic_samples,removed,records,nodes,bytes_estimate,\
+             rel_rmse\n",
+        );
+        let s = &self.config.settings;
+        for r in &self.rows {
+            let _ = writeln!(
+                out,
+                "{},{},{},{},{},{},{},{},{},{:.6},{:.6},{:.6},{},{},{},{},{},{},{:.6}",
+                self.config.scene,
+                r.scheme.name(),
+                r.mode.name(),
+                r.threads,
+                self.machine.cores,
+                self.machine.oversubscribed(r.threads),
+                s.width,
+                s.height,
+                r.frame,
+                r.seconds,
+                r.seconds_range.0,
+                r.seconds_range.1,
+                r.passes,
+                r.ic_samples,
+                r.removed,
+                r.records,
+                r.nodes,
+                r.bytes(),
+                r.error
+            );
+        }
+        out
+    }
+
+    /// `dynamic-sweep.csv`: the removal mode's frames at every tolerance (the main run's, `a`,
+    /// among them).
+    pub fn sweep_csv(&self) -> String {
+        let mut out = String::from(
+            "scheme,threads,tolerance,frame,seconds,seconds_min,seconds_max,passes,ic_samples,\
+             removed,records,rel_rmse\n",
+        );
+        for (tolerance, rows) in self.sweep_rows() {
+            for r in rows {
+                let _ = writeln!(
+                    out,
+                    "{},{},{},{},{:.6},{:.6},{:.6},{},{},{},{},{:.6}",
+                    r.scheme.name(),
+                    r.threads,
+                    tolerance,
+                    r.frame,
+                    r.seconds,
+                    r.seconds_range.0,
+                    r.seconds_range.1,
+                    r.passes,
+                    r.ic_samples,
+                    r.removed,
+                    r.records,
+                    r.error
+                );
+            }
+        }
+        out
+    }
+
+    /// The main run's removal frames of the sweep's scheme (tolerance `a`) and the sweep's, in
+    /// order of tolerance.
+    fn sweep_rows(&self) -> Vec<(f32, Vec<&Row>)> {
+        let mut out = vec![(
+            self.config.settings.accuracy,
+            self.rows_of(self.strip_scheme, Mode::Removal).collect(),
+        )];
+        out.extend(self.sweep.iter().map(|(t, r)| (*t, r.iter().collect())));
+        out.sort_by(|a, b| a.0.total_cmp(&b.0));
+        out
+    }
+
+    /// The checks the issue expects, each `(claim, verdict, detail)`.
+    pub fn checks(&self) -> Vec<(String, bool, String)> {
+        let mut out = Vec::new();
+        for &scheme in &self.config.schemes {
+            let h = scheme.heading();
+            let t_a = mean_after_first(&self.rows, scheme, Mode::Removal, |r| r.seconds);
+            let t_b = mean_after_first(&self.rows, scheme, Mode::Fresh, |r| r.seconds);
+            let e_a = mean_after_first(&self.rows, scheme, Mode::Removal, |r| r.error);
+            let e_b = mean_after_first(&self.rows, scheme, Mode::Fresh, |r| r.error);
+            let e_c = mean_after_first(&self.rows, scheme, Mode::Stale, |r| r.error);
+            // "Within noise": the fresh frames' own spread of error, frame to frame.
+            let fresh: Vec<f64> = self
+                .rows_of(scheme, Mode::Fresh)
+                .filter(|r| r.frame > 0)
+                .map(|r| r.error)
+                .collect();
+            let spread = std_dev(&fresh);
+            out.push((
+                format!(
+                    "{h}: removal as accurate as a fresh cache (within the fresh frames' spread)"
+                ),
+                e_a <= e_b + spread,
+                format!(
+                    "mean error {:.2}% against {:.2}% (spread {:.2}%); stale {:.2}%",
+                    100.0 * e_a,
+                    100.0 * e_b,
+                    100.0 * spread,
+                    100.0 * e_c
+                ),
+            ));
+            out.push((
+                format!(
+                    "{h}: removal several (>= 3) times faster than a fresh cache after frame 0"
+                ),
+                t_b >= 3.0 * t_a,
+                format!(
+                    "{:.3} s against {:.3} s a frame: {:.2}x",
+                    t_a,
+                    t_b,
+                    t_b / t_a
+                ),
+            ));
+        }
+        // WF fastest with removal on every frame after the first, among the schemes at the
+        // configured thread count (TRA runs on one).
+        if self.config.schemes.contains(&Scheme::Wf) {
+            let mut lost = Vec::new();
+            for i in 1..self.config.frames {
+                let of = |s: Scheme| {
+                    self.rows_of(s, Mode::Removal)
+                        .find(|r| r.frame == i)
+                        .map(|r| r.seconds)
+                };
+                let wf = of(Scheme::Wf).unwrap_or(f64::INFINITY);
+                for &s in &self.config.schemes {
+                    if s != Scheme::Wf && s != Scheme::Tra {
+                        if let Some(t) = of(s) {
+                            if t < wf {
+                                lost.push(format!(
+                                    "frame {i}: {} {:.3} s < WF {:.3} s",
+                                    s.heading(),
+                                    t,
+                                    wf
+                                ));
+                            }
+                        }
+                    }
+                }
+            }
+            out.push((
+                format!(
+                    "WF the fastest scheme with removal at {} threads{} on every frame after the first",
+                    self.config.threads,
+                    self.star(self.config.threads)
+                ),
+                lost.is_empty(),
+                if lost.is_empty() {
+                    "no frame where another scheme was faster".to_owned()
+                } else {
+                    format!("{} frames lost: {}", lost.len(), lost.join("; "))
+                },
+            ));
+        }
+        out
+    }
+
+    /// `dynamic.md`.
+    pub fn markdown(&self, command: &str) -> String {
+        let s = &self.config.settings;
+        let n = self.config.frames;
+        let mut md = String::new();
+        let _ = writeln!(
+            md,
+            "# A scene that moves: removal against a fresh and a stale cache\n"
+        );
+        let _ = writeln!(md, "`{command}`\n");
+        let threads: Vec<usize> = self
+            .config
+            .schemes
+            .iter()
+            .map(|&x| self.config.threads_of(x))
+            .collect();
+        let _ = writeln!(md, "{}\n", self.machine.banner(&threads));
+        let _ = writeln!(
+            md,
+            "`{}`: the Cornell box's short block slides {:.0} mm along the floor over {n} frames \
+             ({:.1} mm a frame); the camera stays. {}x{}, {} primary rays a pixel, {} rays a \
+             record, {} light samples, a = {}. Error: relative RMSE of luminance against each \
+             frame's brute-force image (scheme `none`, same seed and light samples) over the \
+             pixels that see a non-emitting surface; the references took {:.1} s.\n\n\
+             Worker 0, at the start of each frame after the first, removes while the others \
+             shade. `removal`: the records whose light the block changed by more than a since \
+             they were computed (`Selection::moving`): a record computed n frames ago goes when \
+             its influence sphere, grown by sqrt(min(d, s) s / (pi a)), meets the box the block \
+             swept since, d = n x the step, s the edge of the block's largest face (the margin \
+             grows to {:.0} mm). `removal-near`: every frame, the records whose influence sphere, \
+             grown by {:.0} mm (within which that face fills more than a of a point's view: \
+             sqrt(A / (pi a))), meets the block's last and new place. `removal-local`: the same \
+             grown by nothing. LW's global records go at its merge, after the frame. The removal \
+             mode ran {} times per scheme, the schemes interleaved: its seconds are each frame's \
+             median (the CSV has the range).\n",
+            self.config.scene,
+            CORNELL_SLIDE.length() * 1000.0,
+            CORNELL_SLIDE.length() * 1000.0 / (n - 1) as f32,
+            s.width,
+            s.height,
+            s.pixel_samples,
+            s.rays_per_record,
+            s.light_samples,
+            s.accuracy,
+            self.reference_seconds,
+            self.margin * 1000.0,
+            self.margin * 1000.0,
+            self.config.passes
+        );
+        let _ = writeln!(
+            md,
+            "## Frames after the first (means over frames 1..{})\n",
+            n - 1
+        );
+        let _ = writeln!(
+            md,
+            "| scheme | threads | mode | seconds | IC samples | removed | records (last) | nodes (last) | memory est. (last) | error mean | error max | time vs fresh |"
+        );
+        let _ = writeln!(
+            md,
+            "|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
+        );
+        for &scheme in &self.config.schemes {
+            let fresh_t = mean_after_first(&self.rows, scheme, Mode::Fresh, |r| r.seconds);
+            for mode in Mode::ALL {
+                let rows: Vec<&Row> = self.rows_of(scheme, mode).filter(|r| r.frame > 0).collect();
+                let Some(last) = rows.last() else { continue };
+                let t = mean_after_first(&self.rows, scheme, mode, |r| r.seconds);
+                let max_e = rows.iter().map(|r| r.error).fold(0.0, f64::max);
+                let _ = writeln!(
+                    md,
+                    "| {} | {}{} | {} | {:.3} | {:.0} | {:.0} | {} | {} | {:.0} KiB | {:.2}% | {:.2}% | {:.2}x |",
+                    scheme.heading(),
+                    last.threads,
+                    self.star(last.threads),
+                    mode.name(),
+                    t,
+                    mean_after_first(&self.rows, scheme, mode, |r| r.ic_samples as f64),
+                    mean_after_first(&self.rows, scheme, mode, |r| r.removed as f64),
+                    last.records,
+                    last.nodes,
+                    last.bytes() as f64 / 1024.0,
+                    100.0 * mean_after_first(&self.rows, scheme, mode, |r| r.error),
+                    100.0 * max_e,
+                    fresh_t / t
+                );
+            }
+        }
+        if !self.sweep.is_empty() {
+            let h = self.strip_scheme.heading();
+            let fresh_t =
+                mean_after_first(&self.rows, self.strip_scheme, Mode::Fresh, |r| r.seconds);
+            let fresh_e = mean_after_first(&self.rows, self.strip_scheme, Mode::Fresh, |r| r.error);
+            let _ = writeln!(
+                md,
+                "\n## Removal's tolerance ({h}, {} threads{}; means over frames 1..{})\n\n\
+                 The tolerance is the change of light, as a fraction, that a record may have \
+                 taken from the block's motion before it goes. A fresh cache: {fresh_t:.3} s a \
+                 frame, error {:.2}%.\n\n\
+                 | tolerance | seconds | IC samples | removed | records (last) | error mean | error max | time vs fresh |\n\
+                 |---:|---:|---:|---:|---:|---:|---:|---:|",
+                self.config.threads_of(self.strip_scheme),
+                self.star(self.config.threads_of(self.strip_scheme)),
+                n - 1,
+                100.0 * fresh_e
+            );
+            for (tolerance, rows) in self.sweep_rows() {
+                let after: Vec<&Row> = rows.into_iter().filter(|r| r.frame > 0).collect();
+                let mean = |f: &dyn Fn(&Row) -> f64| {
+                    after.iter().map(|r| f(r)).sum::<f64>() / after.len().max(1) as f64
+                };
+                let t = mean(&|r| r.seconds);
+                let _ = writeln!(
+                    md,
+                    "| {:.3} ({}a) | {t:.3} | {:.0} | {:.0} | {} | {:.2}% | {:.2}% | {:.2}x |",
+                    tolerance,
+                    tolerance / self.config.settings.accuracy,
+                    mean(&|r| r.ic_samples as f64),
+                    mean(&|r| r.removed as f64),
+                    after.last().map_or(0, |r| r.records),
+                    100.0 * mean(&|r| r.error),
+                    100.0 * after.iter().map(|r| r.error).fold(0.0, f64::max),
+                    fresh_t / t
+                );
+            }
+        }
+        let _ = writeln!(md, "\n## Checks\n");
+        let _ = writeln!(md, "| claim | holds | measured |\n|---|---|---|");
+        for (claim, ok, detail) in self.checks() {
+            let _ = writeln!(
+                md,
+                "| {claim} | {} | {detail} |",
+                if ok { "yes" } else { "**no**" }
+            );
+        }
+        let _ = writeln!(md, "\n## Every frame with removal: seconds / error\n");
+        let mut head = String::from("| frame |");
+        let mut rule = String::from("|---:|");
+        for &scheme in &self.config.schemes {
+            let _ = write!(head, " {} |", scheme.heading());
+            rule.push_str("---:|");
+        }
+        let _ = writeln!(md, "{head}\n{rule}");
+        for i in 0..n {
+            let mut line = format!("| {i} |");
+            for &scheme in &self.config.schemes {
+                if let Some(r) = self.rows_of(scheme, Mode::Removal).find(|r| r.frame == i) {
+                    let _ = write!(line, " {:.3} s / {:.2}% |", r.seconds, 100.0 * r.error);
+                }
+            }
+            let _ = writeln!(md, "{line}");
+        }
+        let _ = writeln!(
+            md,
+            "\n`dynamic.png`: time and error per frame. `dynamic-strip.png`: frames {} of the \
+             strip's scheme with removal (top row), stale (middle) and the reference (bottom).\n\n\
+             `*`: oversubscribed (more threads than the {} cores).",
+            self.strip
+                .iter()
+                .map(|(i, ..)| i.to_string())
+                .collect::<Vec<_>>()
+                .join(", "),
+            self.machine.cores
+        );
+        md
+    }
+
+    /// Time and error per frame, one line per scheme and mode.
+    pub fn figure(&self) -> Figure {
+        let n = self.config.frames;
+        let dash =
+            |c: wfic::cache::Rgb8, k: u16| c.map(|v| ((u16::from(v) + k * 255) / (k + 1)) as u8);
+        let (mut time, mut error, mut legend) = (Vec::new(), Vec::new(), Vec::new());
+        for &scheme in &self.config.schemes {
+            for mode in Mode::ALL {
+                let colour = match mode {
+                    Mode::Removal => scheme.colour(),
+                    Mode::RemovalNear | Mode::RemovalLocal | Mode::Fresh => {
+                        dash(scheme.colour(), 1)
+                    }
+                    Mode::Stale => dash(scheme.colour(), 2),
+                };
+                if matches!(mode, Mode::RemovalNear | Mode::RemovalLocal) {
+                    // Three lines a scheme are enough to read; its numbers are in the tables.
+                    continue;
+                }
+                let label = format!(
+                    "{} {}{} {}",
+                    scheme.heading(),
+                    self.config.threads_of(scheme),
+                    self.star(self.config.threads_of(scheme)),
+                    mode.name().to_uppercase()
+                );
+                legend.push((label.clone(), colour));
+                let rows: Vec<&Row> = self.rows_of(scheme, mode).collect();
+                time.push(Line {
+                    label: label.clone(),
+                    colour,
+                    points: rows.iter().map(|r| (r.frame as f64, r.seconds)).collect(),
+                    markers: mode == Mode::Removal,
+                });
+                error.push(Line {
+                    label,
+                    colour,
+                    points: rows
+                        .iter()
+                        .map(|r| (r.frame as f64, 100.0 * r.error))
+                        .collect(),
+                    markers: mode == Mode::Removal,
+                });
+            }
+        }
+        let base = Panel {
+            x_range: (0.0, (n - 1) as f64),
+            x_label: "FRAME".into(),
+            legend,
+            ..Panel::default()
+        };
+        let threads: Vec<usize> = self
+            .config
+            .schemes
+            .iter()
+            .map(|&x| self.config.threads_of(x))
+            .collect();
+        Figure {
+            header: vec![
+                format!(
+                    "A SCENE THAT MOVES: {} ({} FRAMES), {}X{}; REMOVAL (DARK), FRESH (MID), STALE (LIGHT)",
+                    self.config.scene.to_uppercase(),
+                    n,
+                    self.config.settings.width,
+                    self.config.settings.height
+                ),
+                self.machine.banner(&threads),
+            ],
+            panels: vec![
+                Panel {
+                    title: "TIME PER FRAME".into(),
+                    left_label: "TIME (S)".into(),
+                    lines: time,
+                    ..base.clone()
+                },
+                Panel {
+                    title: "ERROR AGAINST THE FRAME'S BRUTE-FORCE IMAGE".into(),
+                    left_label: "REL. RMSE (%)".into(),
+                    lines: error,
+                    ..base
+                },
+            ],
+            columns: 1,
+            panel_size: (1200, 480),
+        }
+    }
+
+    /// The strip: one column per kept frame; rows removal, stale, reference, all at the
+    /// reference's exposure.
+    pub fn strip_image(&self) -> Option<image::RgbImage> {
+        let (_, first, ..) = self.strip.first()?;
+        let (w, h) = (first.width(), first.height());
+        let gap = 4;
+        let cols = self.strip.len() as u32;
+        let mut out = image::RgbImage::from_pixel(
+            cols * (w + gap) - gap,
+            3 * (h + gap) - gap,
+            image::Rgb([255, 255, 255]),
+        );
+        for (c, (_, a, stale, reference)) in self.strip.iter().enumerate() {
+            let exposure = reference.auto_exposure();
+            for (r, img) in [a, stale, reference].into_iter().enumerate() {
+                let rgb = img.to_srgb8(exposure);
+                for y in 0..h {
+                    for x in 0..w {
+                        let k = 3 * (y * w + x) as usize;
+                        out.put_pixel(
+                            c as u32 * (w + gap) + x,
+                            r as u32 * (h + gap) + y,
+                            image::Rgb([rgb[k], rgb[k + 1], rgb[k + 2]]),
+                        );
+                    }
+                }
+            }
+        }
+        Some(out)
+    }
+
+    /// Writes `dynamic.csv`, `dynamic-sweep.csv`, `dynamic.md`, `dynamic.png`, `dynamic.svg` and
+    /// `dynamic-strip.png`.
+    pub fn write(&self, dir: &Path, command: &str) -> Result<(), String> {
+        std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+        write_file(&dir.join("dynamic.csv"), &self.csv())?;
+        write_file(&dir.join("dynamic.md"), &self.markdown(command))?;
+        write_file(&dir.join("dynamic-sweep.csv"), &self.sweep_csv())?;
+        let figure = self.figure();
+        figure.write_png(&dir.join("dynamic.png"))?;
+        figure.write_svg(&dir.join("dynamic.svg"))?;
+        if let Some(strip) = self.strip_image() {
+            let path = dir.join("dynamic-strip.png");
+            strip
+                .save(&path)
+                .map_err(|e| format!("{}: {e}", path.display()))?;
+        }
+        Ok(())
+    }
+}
+
+fn std_dev(v: &[f64]) -> f64 {
+    if v.len() < 2 {
+        return 0.0;
+    }
+    let m = v.iter().sum::<f64>() / v.len() as f64;
+    (v.iter().map(|x| (x - m) * (x - m)).sum::<f64>() / (v.len() - 1) as f64).sqrt()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn tiny() -> DynamicConfig {
+        DynamicConfig {
+            scene: SCENE.into(),
+            frames: 3,
+            threads: 2,
+            schemes: vec![Scheme::Lw, Scheme::Wf],
+            settings: RenderSettings::new(24, 24)
+                .rays_per_record(32)
+                .light_samples(1)
+                .quiet(true),
+            passes: 2,
+            sweep: vec![4.0],
+        }
+    }
+
+    #[test]
+    fn a_short_run_removes_reuses_and_writes_every_output() {
+        let machine = Machine {
+            cores: 2,
+            cpu: "test".into(),
+        };
+        let mut calls = 0;
+        let d = run(&tiny(), &machine, &mut |_| calls += 1).unwrap();
+        // 3 references, then 2 schemes x 5 modes x 3 frames, the removal mode's second pass,
+        // and the sweep's one tolerance twice (WF).
+        assert_eq!(calls, 3 + 30 + 6 + 6);
+        assert_eq!(d.rows.len(), 30);
+        let of = |s: Scheme, m: Mode, i: usize| {
+            d.rows
+                .iter()
+                .find(|r| r.scheme == s && r.mode == m && r.frame == i)
+                .unwrap()
+                .clone()
+        };
+        for s in [Scheme::Lw, Scheme::Wf] {
+            // Frame 0 is the same empty-cache frame in every mode.
+            assert!(of(s, Mode::Fresh, 0).ic_samples > 0);
+            // Removal takes records in later frames; stale never does.
+            assert!(of(s, Mode::Removal, 1).removed > 0, "{s}");
+            assert!(of(s, Mode::RemovalNear, 1).removed > 0, "{s}");
+            // The removal mode's time is the median of its two passes (the slower, at two),
+            // within their range; the other modes ran once.
+            let r = of(s, Mode::Removal, 1);
+            assert_eq!(r.passes, 2);
+            assert!(
+                r.seconds_range.0 <= r.seconds && r.seconds == r.seconds_range.1,
+                "{r:?}"
+            );
+            assert_eq!(of(s, Mode::Fresh, 1).passes, 1);
+            assert_eq!(of(s, Mode::Stale, 2).removed, 0);
+            // A fresh cache recomputes about as much every frame; reuse computes less.
+            assert!(
+                of(s, Mode::Fresh, 2).ic_samples > of(s, Mode::Stale, 2).ic_samples,
+                "{s}"
+            );
+            assert!(
+                of(s, Mode::Removal, 2).ic_samples < of(s, Mode::Fresh, 2).ic_samples,
+                "{s}"
+            );
+            // A fresh cache holds exactly the frame's own records.
+            let f = of(s, Mode::Fresh, 2);
+            assert_eq!(f.records as u64, f.ic_samples, "{s}");
+            for m in Mode::ALL {
+                let e = of(s, m, 2).error;
+                assert!(e.is_finite() && e > 0.0 && e < 1.0, "{s} {m:?}: {e}");
+            }
+        }
+        assert_eq!(d.strip.len(), 3);
+        // The sweep: a looser tolerance (4a) removes no more than the main run's a over the run
+        // (its margins are smaller, its swept boxes the same; a few records of slack for the
+        // workers' different interleavings).
+        assert_eq!(d.strip_scheme, Scheme::Wf);
+        let (t, loose) = &d.sweep[0];
+        assert_eq!(*t, 4.0 * d.config.settings.accuracy);
+        assert_eq!(loose.len(), 3);
+        assert!(loose
+            .iter()
+            .all(|r| r.passes == 2 && r.mode == Mode::Removal));
+        assert!(
+            loose.iter().map(|r| r.removed).sum::<u64>()
+                <= d.rows_of(Scheme::Wf, Mode::Removal)
+                    .map(|r| r.removed)
+                    .sum::<u64>()
+                    + 8,
+            "{loose:?}"
+        );
+        let dir = std::env::temp_dir().join(format!("wfic-dynamic-{}", std::process::id()));
+        d.write(&dir, "wfic reproduce dynamic (test)").unwrap();
+        let csv = std::fs::read_to_string(dir.join("dynamic.csv")).unwrap();
+        assert_eq!(csv.lines().count(), 1 + 30);
+        assert!(
+            csv.contains("\ncornell-moving,wf,removal,2,2,false,24,24,1,"),
+            "{csv}"
+        );
+        let md = std::fs::read_to_string(dir.join("dynamic.md")).unwrap();
+        assert!(md.contains("| WF | 2 | removal |"), "{md}");
+        assert!(md.contains("WF the fastest scheme with removal"), "{md}");
+        assert!(md.contains("## Removal's tolerance (WF"), "{md}");
+        assert!(md.contains("| 1.000 (4a) |"), "{md}");
+        let sweep = std::fs::read_to_string(dir.join("dynamic-sweep.csv")).unwrap();
+        assert_eq!(sweep.lines().count(), 1 + 6, "{sweep}");
+        let strip = image::open(dir.join("dynamic-strip.png")).unwrap();
+        assert_eq!(
+            (strip.width(), strip.height()),
+            (3 * 24 + 2 * 4, 3 * 24 + 2 * 4)
+        );
+        assert_eq!(image::open(dir.join("dynamic.png")).unwrap().width(), 1200);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn bad_arguments_are_refused_by_name() {
+        let machine = Machine {
+            cores: 2,
+            cpu: "test".into(),
+        };
+        let refused = |config: DynamicConfig, says: &str| {
+            let e = run(&config, &machine, &mut |_| {}).unwrap_err();
+            assert!(e.contains(says), "{e}");
+        };
+        refused(
+            DynamicConfig {
+                scene: "cornell".into(),
+                ..tiny()
+            },
+            "cornell-moving",
+        );
+        refused(
+            DynamicConfig {
+                frames: 1,
+                ..tiny()
+            },
+            "--frames 1",
+        );
+        refused(
+            DynamicConfig {
+                schemes: vec![Scheme::None],
+                ..tiny()
+            },
+            "none",
+        );
+        refused(
+            DynamicConfig {
+                passes: 0,
+                ..tiny()
+            },
+            "--passes 0",
+        );
+        refused(
+            DynamicConfig {
+                sweep: vec![2.0, -1.0],
+                ..tiny()
+            },
+            "--sweep -1",
+        );
+    }
+}

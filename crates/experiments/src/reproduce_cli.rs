@@ -1,0 +1,610 @@
+//! `wfic reproduce table1` and `wfic reproduce animation`: arguments, progress bar, output.
+
+use super::animation::{self, AnimationConfig};
+use super::distributed::{self, DistributedConfig};
+use super::dynamic::{self, DynamicConfig};
+use super::table1::{self, Table1Config};
+use crate::Machine;
+use wfic::cache::Scheme;
+use wfic_render::RenderSettings;
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use std::io::IsTerminal;
+use std::path::PathBuf;
+
+/// Primary rays per pixel in the experiments (see `paper-notes.md`, "Table 1").
+pub const SPP: u32 = 4;
+/// Light samples per primary hit in the experiments: with [`SPP`], 8 shadow rays per pixel.
+pub const LIGHT_SAMPLES: u32 = 2;
+
+/// The experiments.
+#[derive(Clone, Debug, clap::Subcommand)]
+pub enum ReproduceCommand {
+    /// Table 1 and Figure 1: every scene with an empty cache, TRA on 1 thread and each parallel
+    /// scheme at each thread count, several runs each (medians). Writes table1.md, table1.csv,
+    /// figure1.png and figure1.svg.
+    Table1(Table1Args),
+    /// Figures 2 and 3: the 360° orbit reusing the cache across frames, per scheme. Writes
+    /// animation-SCENE.csv, .md, .png and .svg.
+    Animation(AnimationArgs),
+    /// A scene that moves (issue 13): `cornell-moving`'s short block slides across the floor;
+    /// each scheme renders every frame with removal of the records the block's swept bounds
+    /// touch, with a fresh cache, and with stale records, each against the frame's brute-force
+    /// image. Writes dynamic.md, dynamic.csv, dynamic.png, dynamic.svg and dynamic-strip.png.
+    Dynamic(DynamicArgs),
+    /// One frame over MPI ranks (issue 14; wfic built with `--features mpi`, OpenMPI
+    /// installed): 1 rank x 2 threads, 2 ranks x 1 thread sharing records and sharing nothing,
+    /// 4 ranks (oversubscribed), a sweep of the batch size, and Radiance's `rtrace -n 1` and `-n
+    /// 2` on one ambient file. Writes distributed.md, distributed.csv, distributed.png and
+    /// distributed.svg.
+    Distributed(DistributedArgs),
+}
+
+/// Arguments of `wfic reproduce distributed`.
+#[derive(Clone, Debug, clap::Args)]
+pub struct DistributedArgs {
+    /// The scene.
+    #[arg(long, default_value = distributed::SCENE)]
+    pub scene: String,
+    /// A smoke run: 96 x 96, 128 rays a record, one run a job, three batch sizes.
+    #[arg(long)]
+    pub quick: bool,
+    /// Image width (default 256, quick 96).
+    #[arg(long)]
+    pub width: Option<u32>,
+    /// Image height (default: as the width).
+    #[arg(long)]
+    pub height: Option<u32>,
+    /// Hemisphere rays per record (default 512, quick 128).
+    #[arg(long)]
+    pub rays_per_record: Option<u32>,
+    /// Ward's accuracy `a`, for wfic and Radiance (`-aa`).
+    #[arg(long, default_value_t = 0.15)]
+    pub accuracy: f32,
+    /// Light samples per primary hit.
+    #[arg(long, default_value_t = 8)]
+    pub light_samples: u32,
+    /// Runs per job, each job reporting its median (default 3, quick 1).
+    #[arg(long)]
+    pub runs: Option<usize>,
+    /// The batch sizes of the sweep (default 4,16,64,256,1024,4096; quick 16,256,4096).
+    #[arg(long, value_delimiter = ',')]
+    pub batches: Vec<usize>,
+    /// The main jobs' batch size.
+    #[arg(long, default_value_t = 256)]
+    pub batch_records: usize,
+    /// The main jobs' batch timer (ms).
+    #[arg(long, default_value_t = 20)]
+    pub batch_ms: u64,
+    /// Skip Radiance (otherwise `rtrace` must be found: `pip install pyradiance`).
+    #[arg(long)]
+    pub no_radiance: bool,
+    /// Frames of the orbit animation, caches kept across frames (default 12, quick 4; 0 or 1:
+    /// none).
+    #[arg(long)]
+    pub frames: Option<usize>,
+    /// Output directory.
+    #[arg(long)]
+    pub out_dir: PathBuf,
+    /// No progress bar.
+    #[arg(long)]
+    pub quiet: bool,
+}
+
+/// Arguments of `wfic reproduce dynamic`.
+#[derive(Clone, Debug, clap::Args)]
+pub struct DynamicArgs {
+    /// The moving scene.
+    #[arg(long, default_value = dynamic::SCENE)]
+    pub scene: String,
+    /// A smoke run: 64 x 64, 8 frames, 1 primary ray a pixel, 128 rays a record.
+    #[arg(long)]
+    pub quick: bool,
+    /// Frames over the block's slide (default 24, quick 8).
+    #[arg(long)]
+    pub frames: Option<usize>,
+    /// Threads of the parallel schemes (TRA runs on 1).
+    #[arg(long, default_value_t = 2)]
+    pub threads: usize,
+    /// Times the removal mode is rendered per scheme, the schemes interleaved; each frame's time
+    /// is their median (default 3, quick 1).
+    #[arg(long)]
+    pub passes: Option<usize>,
+    /// Further tolerances of the removal's selection, as multiples of the accuracy, rendered
+    /// with WF (default 0.5,2,4,8; quick 4).
+    #[arg(long, value_delimiter = ',')]
+    pub sweep: Vec<f32>,
+    /// Schemes (default: tra, lck, lw, wf).
+    #[arg(long, value_parser = crate::render_cli::scheme_parser(), value_delimiter = ',')]
+    pub schemes: Vec<Scheme>,
+    /// Image width (default 128, quick 64).
+    #[arg(long)]
+    pub width: Option<u32>,
+    /// Image height (default: as the width).
+    #[arg(long)]
+    pub height: Option<u32>,
+    /// Sampling (with --quick, the primary rays and the rays per record are the quick ones
+    /// unless given).
+    #[command(flatten)]
+    pub sampling: SamplingArgs,
+    /// Output directory.
+    #[arg(long)]
+    pub out_dir: PathBuf,
+    /// No progress bar.
+    #[arg(long)]
+    pub quiet: bool,
+}
+
+/// The sampling options both experiments share.
+#[derive(Clone, Debug, clap::Args)]
+pub struct SamplingArgs {
+    /// Hemisphere rays per irradiance record.
+    #[arg(long, default_value_t = 512)]
+    pub rays_per_record: u32,
+    /// Primary rays per pixel (each primary hit makes its own cache lookup).
+    #[arg(long, default_value_t = SPP)]
+    pub spp: u32,
+    /// Light samples (shadow rays) per primary hit.
+    #[arg(long, default_value_t = LIGHT_SAMPLES)]
+    pub light_samples: u32,
+}
+
+impl SamplingArgs {
+    /// Render settings for a `width` x `height` image, after checking every count is at least 1.
+    pub fn settings(&self, (width, height): (u32, u32)) -> Result<RenderSettings, String> {
+        for (name, v) in [
+            ("--rays-per-record", self.rays_per_record),
+            ("--spp", self.spp),
+            ("--light-samples", self.light_samples),
+        ] {
+            if v == 0 {
+                return Err(format!("{name} must be at least 1"));
+            }
+        }
+        Ok(RenderSettings::new(width, height)
+            .rays_per_record(self.rays_per_record)
+            .pixel_samples(self.spp)
+            .light_samples(self.light_samples))
+    }
+}
+
+/// Arguments of `wfic reproduce table1`.
+#[derive(Clone, Debug, clap::Args)]
+pub struct Table1Args {
+    /// Output directory.
+    #[arg(long)]
+    pub out_dir: PathBuf,
+    /// Smaller images and fewer runs (160x160, 3 runs, 11 for the compared columns): a few
+    /// minutes on 2 cores.
+    #[arg(long)]
+    pub quick: bool,
+    /// Scenes (default: all five).
+    #[arg(long, value_delimiter = ',')]
+    pub scenes: Vec<String>,
+    /// Parallel schemes (default: lck, lck-rw, lw, wf, wf-discard; TRA always runs on 1 thread).
+    #[arg(long, value_parser = crate::render_cli::scheme_parser(), value_delimiter = ',')]
+    pub schemes: Vec<Scheme>,
+    /// Thread counts of the parallel schemes.
+    #[arg(long, value_delimiter = ',', default_value = "2,4,8")]
+    pub threads: Vec<usize>,
+    /// Timed runs per column (default: 3 with --quick, 5 without).
+    #[arg(long)]
+    pub runs: Option<usize>,
+    /// Timed runs of the columns the checks compare, TRA, and LCK, LW and WF at 2 threads
+    /// (default: 11 with --quick, 15 without; at least --runs).
+    #[arg(long)]
+    pub paired_runs: Option<usize>,
+    /// Image width (default: 160 with --quick, 320 without).
+    #[arg(long)]
+    pub width: Option<u32>,
+    /// Image height (default: as the width).
+    #[arg(long)]
+    pub height: Option<u32>,
+    /// Sampling.
+    #[command(flatten)]
+    pub sampling: SamplingArgs,
+    /// Render the speed-up's controls (WF on one thread and two TRA frames at once, every paired
+    /// round) and the table that sets WF's speed-up against the machine (default: true, false
+    /// with --quick, where they would double the run).
+    #[arg(long)]
+    pub controls: Option<bool>,
+    /// No progress bar.
+    #[arg(long)]
+    pub quiet: bool,
+}
+
+/// Arguments of `wfic reproduce animation`.
+#[derive(Clone, Debug, clap::Args)]
+pub struct AnimationArgs {
+    /// Built-in scene.
+    #[arg(long, default_value = "cornell")]
+    pub scene: String,
+    /// Frames over one full orbit.
+    #[arg(long, default_value_t = 100)]
+    pub frames: usize,
+    /// Threads of the parallel schemes (TRA runs on 1).
+    #[arg(long, default_value_t = 8)]
+    pub threads: usize,
+    /// Schemes (default: tra, lck, lck-rw, lw, wf, wf-discard).
+    #[arg(long, value_parser = crate::render_cli::scheme_parser(), value_delimiter = ',')]
+    pub schemes: Vec<Scheme>,
+    /// Image width.
+    #[arg(long, default_value_t = 160)]
+    pub width: u32,
+    /// Image height (default: as the width).
+    #[arg(long)]
+    pub height: Option<u32>,
+    /// Sampling.
+    #[command(flatten)]
+    pub sampling: SamplingArgs,
+    /// Output directory.
+    #[arg(long)]
+    pub out_dir: PathBuf,
+    /// No progress bar.
+    #[arg(long)]
+    pub quiet: bool,
+}
+
+fn bar(len: usize, quiet: bool) -> ProgressBar {
+    if quiet || !std::io::stderr().is_terminal() {
+        return ProgressBar::hidden();
+    }
+    let bar = ProgressBar::with_draw_target(Some(len as u64), ProgressDrawTarget::stderr());
+    if let Ok(style) = ProgressStyle::with_template(
+        "[{elapsed_precise}] {wide_bar} {pos}/{len} frames (eta {eta}) {msg}",
+    ) {
+        bar.set_style(style);
+    }
+    bar
+}
+
+/// The command line, for the output's provenance.
+fn command_line() -> String {
+    let args: Vec<String> = std::env::args().collect();
+    let mut words = vec!["wfic".to_owned()];
+    words.extend(args.into_iter().skip(1));
+    words.join(" ")
+}
+
+fn size(width: u32, height: Option<u32>) -> Result<(u32, u32), String> {
+    let h = height.unwrap_or(width);
+    if width == 0 || h == 0 {
+        return Err(format!("image size {width}x{h} is empty"));
+    }
+    Ok((width, h))
+}
+
+/// Runs `wfic reproduce ...`.
+pub fn run(command: ReproduceCommand) -> Result<(), String> {
+    let machine = Machine::detect();
+    match command {
+        ReproduceCommand::Table1(a) => {
+            let (w, h) = size(a.width.unwrap_or(if a.quick { 160 } else { 320 }), a.height)?;
+            let runs = a.runs.unwrap_or(if a.quick { 3 } else { 5 });
+            let mut config = Table1Config::paper(w, h, runs);
+            // An explicit --paired-runs below --runs is refused by `table1::run`; the default
+            // never is.
+            config.paired_runs = a
+                .paired_runs
+                .unwrap_or_else(|| runs.max(if a.quick { 11 } else { 15 }));
+            config.settings = a.sampling.settings((w, h))?;
+            if !a.scenes.is_empty() {
+                config.scenes = a.scenes.clone();
+            }
+            if !a.schemes.is_empty() {
+                config.schemes = a.schemes.clone();
+            }
+            config.threads = a.threads.clone();
+            config.controls = a.controls.unwrap_or(!a.quick);
+            let mut threads = vec![1];
+            threads.extend(&config.threads);
+            println!("{}", machine.banner(&threads));
+            let pb = bar(config.total_frames(), a.quiet);
+            let mut first = true;
+            let t = table1::run(&config, &machine, &mut |label| {
+                if !first {
+                    pb.inc(1);
+                }
+                first = false;
+                pb.set_message(label.to_owned());
+            })?;
+            pb.finish_and_clear();
+            t.write(&a.out_dir, &command_line())?;
+            for c in t.checks() {
+                println!(
+                    "{:<11} {:<58} {:<4} {}",
+                    c.scene,
+                    c.claim,
+                    c.verdict.text().trim_matches('*'),
+                    c.detail
+                );
+            }
+            println!(
+                "wrote {}/table1.md, table1.csv, figure1.png, figure1.svg ({:.0} s)",
+                a.out_dir.display(),
+                t.seconds
+            );
+            Ok(())
+        }
+        ReproduceCommand::Distributed(a) => {
+            let (w, h) = size(a.width.unwrap_or(if a.quick { 96 } else { 256 }), a.height)?;
+            let rays = a.rays_per_record.unwrap_or(if a.quick { 128 } else { 512 });
+            if rays == 0 || a.light_samples == 0 {
+                return Err("--rays-per-record and --light-samples must be at least 1".to_owned());
+            }
+            if !(a.accuracy.is_finite() && a.accuracy > 0.0) {
+                return Err(format!("--accuracy {} is not a number above 0", a.accuracy));
+            }
+            let settings = RenderSettings::new(w, h)
+                .rays_per_record(rays)
+                .light_samples(a.light_samples)
+                .accuracy(a.accuracy)
+                .quiet(true);
+            let config = DistributedConfig {
+                scene: a.scene.clone(),
+                settings,
+                runs: a.runs.unwrap_or(if a.quick { 1 } else { 3 }),
+                batches: if !a.batches.is_empty() {
+                    a.batches.clone()
+                } else if a.quick {
+                    vec![16, 256, 4096]
+                } else {
+                    vec![4, 16, 64, 256, 1024, 4096]
+                },
+                batch_ms: a.batch_ms,
+                batch_records: a.batch_records,
+                stride: 2,
+                radiance_resolution: 128,
+                radiance: !a.no_radiance,
+                animation_frames: a.frames.unwrap_or(if a.quick { 4 } else { 12 }),
+            };
+            println!("{}", machine.banner(&[1, 2, 4]));
+            let animation = if config.animation_frames > 1 { 4 } else { 0 };
+            let jobs = config.runs * (4 + config.batches.len())
+                + 1
+                + animation
+                + usize::from(config.radiance);
+            let pb = bar(jobs, a.quiet);
+            let start = std::time::Instant::now();
+            let mut first = true;
+            let d = distributed::run(&config, &machine, &a.out_dir, &mut |label| {
+                if !first {
+                    pb.inc(1);
+                }
+                first = false;
+                if a.quiet || !std::io::stderr().is_terminal() {
+                    if !a.quiet {
+                        eprintln!("{label}");
+                    }
+                } else {
+                    pb.set_message(label.to_owned());
+                }
+            })?;
+            pb.finish_and_clear();
+            d.write(&a.out_dir, &command_line())?;
+            for (claim, ok, detail) in d.checks() {
+                println!("{:<4} {claim}: {detail}", if ok { "yes" } else { "NO" });
+            }
+            println!(
+                "wrote {}/distributed.md, distributed.csv, distributed.png, distributed.svg ({:.0} s)",
+                a.out_dir.display(),
+                start.elapsed().as_secs_f64()
+            );
+            Ok(())
+        }
+        ReproduceCommand::Dynamic(a) => {
+            let (w, h) = size(a.width.unwrap_or(if a.quick { 64 } else { 128 }), a.height)?;
+            let mut sampling = a.sampling.clone();
+            if a.quick {
+                sampling.spp = 1;
+                sampling.rays_per_record = sampling.rays_per_record.min(128);
+            }
+            let settings = sampling.settings((w, h))?.quiet(true);
+            let schemes = if a.schemes.is_empty() {
+                vec![Scheme::Tra, Scheme::Lck, Scheme::Lw, Scheme::Wf]
+            } else {
+                a.schemes.clone()
+            };
+            let config = DynamicConfig {
+                scene: a.scene.clone(),
+                frames: a.frames.unwrap_or(if a.quick { 8 } else { 24 }),
+                threads: a.threads,
+                schemes,
+                settings,
+                passes: a.passes.unwrap_or(if a.quick { 1 } else { 3 }),
+                sweep: if !a.sweep.is_empty() {
+                    a.sweep.clone()
+                } else if a.quick {
+                    vec![4.0]
+                } else {
+                    vec![0.5, 2.0, 4.0, 8.0]
+                },
+            };
+            let threads: Vec<usize> = config
+                .schemes
+                .iter()
+                .map(|s| config.threads_of(*s))
+                .collect();
+            println!("{}", machine.banner(&threads));
+            let renders = 1
+                + (dynamic::Mode::ALL.len() + config.passes.saturating_sub(1))
+                    * config.schemes.len()
+                + config.passes * config.sweep.len();
+            let pb = bar(config.frames * renders, a.quiet);
+            let mut first = true;
+            let start = std::time::Instant::now();
+            let d = dynamic::run(&config, &machine, &mut |label| {
+                if !first {
+                    pb.inc(1);
+                }
+                first = false;
+                pb.set_message(label.to_owned());
+            })?;
+            pb.finish_and_clear();
+            d.write(&a.out_dir, &command_line())?;
+            for (claim, ok, detail) in d.checks() {
+                println!("{:<4} {claim}: {detail}", if ok { "yes" } else { "NO" });
+            }
+            println!(
+                "wrote {}/dynamic.md, dynamic.csv, dynamic.png, dynamic.svg, dynamic-strip.png ({:.0} s)",
+                a.out_dir.display(),
+                start.elapsed().as_secs_f64()
+            );
+            Ok(())
+        }
+        ReproduceCommand::Animation(a) => {
+            let (w, h) = size(a.width, a.height)?;
+            let settings = a.sampling.settings((w, h))?;
+            let schemes = if a.schemes.is_empty() {
+                Scheme::CACHED.to_vec()
+            } else {
+                a.schemes.clone()
+            };
+            let config = AnimationConfig {
+                scene: a.scene.clone(),
+                frames: a.frames,
+                threads: a.threads,
+                schemes,
+                settings,
+            };
+            let threads: Vec<usize> = config
+                .schemes
+                .iter()
+                .map(|s| config.threads_of(*s))
+                .collect();
+            println!("{}", machine.banner(&threads));
+            let pb = bar(config.frames * config.schemes.len(), a.quiet);
+            let mut first = true;
+            let anim = animation::run(&config, &machine, &mut |label| {
+                if !first {
+                    pb.inc(1);
+                }
+                first = false;
+                pb.set_message(label.to_owned());
+            })?;
+            pb.finish_and_clear();
+            anim.write(&a.out_dir, &command_line())?;
+            for o in &anim.orbits {
+                println!(
+                    "{:<11} {:>2} threads: total {:>7.2} s, {:>7} IC samples",
+                    o.scheme.name(),
+                    o.threads,
+                    o.total_seconds(),
+                    o.total_samples()
+                );
+            }
+            println!(
+                "wrote {}/animation-{}.csv, .md, .png, .svg",
+                a.out_dir.display(),
+                a.scene
+            );
+            Ok(())
+        }
+    }
+}
+
+/// What `wfic compare` compares wfic with.
+#[derive(Clone, Debug, clap::Subcommand)]
+pub enum CompareCommand {
+    /// Radiance (`rtrace -ab 1`, Ward's own irradiance cache) and wfic (`wf`) on the same
+    /// scene, camera and settings, each against its own brute-force image; then the wfic setting
+    /// at or below Radiance's error and the time ratio there. Writes radiance.md, radiance.csv
+    /// and SCENE-side-by-side.png. Needs Radiance's binaries (`pip install pyradiance`).
+    Radiance(RadianceArgs),
+}
+
+/// Arguments of `wfic compare radiance`.
+#[derive(Clone, Debug, clap::Args)]
+pub struct RadianceArgs {
+    /// Built-in scenes, comma-separated (`all`: every one).
+    #[arg(long, value_delimiter = ',', required = true)]
+    pub scene: Vec<String>,
+    /// A smoke run: 128 x 128, 256 rays per record, a short sweep.
+    #[arg(long)]
+    pub quick: bool,
+    /// Output folder.
+    #[arg(long, default_value = "results/radiance")]
+    pub out_dir: std::path::PathBuf,
+    /// Image width (default 512, quick 128).
+    #[arg(long)]
+    pub width: Option<u32>,
+    /// Image height (default: the width).
+    #[arg(long)]
+    pub height: Option<u32>,
+    /// Rays per record, `-ad` (default 1024, quick 256).
+    #[arg(long)]
+    pub rays_per_record: Option<u32>,
+    /// Ward's accuracy, `-aa`.
+    #[arg(long)]
+    pub accuracy: Option<f32>,
+    /// Radiance's ambient resolution, `-ar`.
+    #[arg(long)]
+    pub resolution: Option<u32>,
+    /// Keep the exported scene, rays and ambient files (DIR/work-SCENE/).
+    #[arg(long)]
+    pub keep_work: bool,
+    /// Renders of every measured setting, each row their median time and mean error (Radiance:
+    /// fresh ambient files; wfic: seeds). Default 3, quick 1.
+    #[arg(long)]
+    pub repeats: Option<u32>,
+}
+
+/// Runs `wfic compare ...`.
+pub fn run_compare(command: CompareCommand) -> Result<(), String> {
+    match command {
+        CompareCommand::Radiance(a) => {
+            let scenes: Vec<String> = if a.scene.iter().any(|s| s == "all") {
+                wfic_render::scenes::NAMES
+                    .iter()
+                    .map(|s| s.to_string())
+                    .collect()
+            } else {
+                a.scene.clone()
+            };
+            for s in &scenes {
+                if wfic_render::scenes::info(s).is_none() {
+                    return Err(format!(
+                        "unknown scene `{s}` (expected one of: {}, or all)",
+                        wfic_render::scenes::NAMES.join(", ")
+                    ));
+                }
+            }
+            let mut config = if a.quick {
+                super::radiance::RadianceConfig::quick(scenes)
+            } else {
+                super::radiance::RadianceConfig::full(scenes)
+            };
+            if let Some(w) = a.width {
+                config.size = size(w, a.height)?;
+            } else if let Some(h) = a.height {
+                config.size = size(config.size.0, Some(h))?;
+            }
+            if let Some(n) = a.rays_per_record {
+                if n < 16 {
+                    return Err("--rays-per-record must be at least 16".to_owned());
+                }
+                config.rays = n;
+            }
+            if let Some(acc) = a.accuracy {
+                if !(acc > 0.0 && acc <= 2.0) {
+                    return Err(format!("--accuracy {acc} is not in (0, 2]"));
+                }
+                config.accuracy = acc;
+            }
+            if let Some(r) = a.resolution {
+                if r == 0 {
+                    return Err("--resolution must be at least 1".to_owned());
+                }
+                config.resolution = r;
+            }
+            config.keep_work = a.keep_work;
+            if let Some(r) = a.repeats {
+                if r == 0 {
+                    return Err("--repeats must be at least 1".to_owned());
+                }
+                config.repeats = r;
+            }
+            let command: Vec<String> = std::env::args().collect();
+            super::radiance::run(&config, &a.out_dir, &command.join(" "))
+        }
+    }
+}

@@ -1,0 +1,811 @@
+//! One frame rendered by several processes over MPI (feature `mpi`), each rank running its
+//! threads on a local wait-free cache and exchanging new records with the others in batches.
+//!
+//! **Design.** Every rank loads the same scene and settings; a fingerprint of both is gathered
+//! first, and a rank that differs makes every rank stop with the same error (not a wrong
+//! picture). The frame's tiles are handed out in chunks at the exchange rounds: each round,
+//! every rank whose own queue holds fewer tiles than twice its threads gets the next chunk, in
+//! rank order, from a counter that every rank advances the same way from the same gathered
+//! queue lengths, so no message is needed to agree on it. A slow rank asks for less, and the
+//! tiles go to whoever is short of work.
+//!
+//! Each rank's workers render through a handle that also copies every record they store into an
+//! outbox. The rank's main thread (the only one that calls MPI) runs the rounds: every
+//! `batch_ms` milliseconds, or as soon as the outbox holds `batch_records` records, it gathers
+//! every rank's queue length and state (`MPI_Allgather`) and every rank's new records
+//! (`MPI_Allgatherv`), and inserts the others' records into the local cache through a handle of
+//! its own (a wait-free insert beside the workers'). A collective waits for every rank, so a
+//! round lasts as long as its slowest rank takes to reach it; the workers do not wait for it.
+//! The rounds end when every rank has rendered every tile it was given and no tile is left.
+//! Then rank 0 gathers the tiles' pixels (`MPI_Gatherv`) and every rank's computed records (for
+//! the duplicate count), and writes the image.
+//!
+//! **Failures.** A panic on any thread of any rank prints the rank and aborts the whole job
+//! (`MPI_Abort`), so the other ranks do not hang in a collective. A rank that exits without
+//! finishing is seen by `mpirun`, which ends the job. Nothing is written before the frame is
+//! complete on rank 0.
+
+use super::film::Image;
+use super::integrator::{PixelIntegrator, SampleCounters};
+use super::{Camera, RenderSettings, Scene};
+use wfic::cache::wf::Minimal;
+use wfic::cache::{CacheConfig, CacheHandle, CasFailure, Inserted, IrradianceCache, WaitFree};
+use wfic::ic::{self, InsertError, Interpolated, Record, Selection, WorkerId};
+use wfic::sync::{AtomicBool, AtomicUsize, Mutex, Ordering};
+use glam::Vec3;
+use mpi::datatype::PartitionMut;
+use mpi::topology::SimpleCommunicator;
+use mpi::traits::*;
+use mpi::Count;
+use std::collections::VecDeque;
+use std::fmt;
+use std::time::{Duration, Instant};
+
+/// How records cross between ranks.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Exchange {
+    /// A round starts as soon as a rank's outbox holds this many records (at least 1).
+    pub batch_records: usize,
+    /// ... or this long after the previous round.
+    pub batch_ms: u64,
+    /// False: the ranks render their tiles with caches that share nothing (the baseline that
+    /// shows what the exchange buys). Tiles and the image are handled the same way.
+    pub share: bool,
+}
+
+impl Default for Exchange {
+    fn default() -> Self {
+        Self {
+            batch_records: 256,
+            batch_ms: 20,
+            share: true,
+        }
+    }
+}
+
+/// A record as it crosses between ranks: its fields as plain floats, and the rank that computed
+/// it. The id is not sent: the receiving cache gives the record an id of its own.
+#[derive(Equivalence, Clone, Copy, Debug, Default, PartialEq)]
+pub struct WireRecord {
+    /// position, normal, irradiance (3 each), radius, translational then rotational gradient (9
+    /// each): 28 floats.
+    pub fields: [f32; 28],
+    /// The rank that computed it.
+    pub origin: u32,
+}
+
+impl WireRecord {
+    /// `record`, computed by rank `origin`.
+    pub fn new(record: &Record, origin: u32) -> Self {
+        let mut fields = [0.0; 28];
+        let mut put = |at: usize, v: Vec3| fields[at..at + 3].copy_from_slice(&v.to_array());
+        put(0, record.position);
+        put(3, record.normal);
+        put(6, record.irradiance);
+        for c in 0..3 {
+            put(10 + 3 * c, record.grad_t[c]);
+            put(19 + 3 * c, record.grad_r[c]);
+        }
+        fields[9] = record.radius;
+        Self { fields, origin }
+    }
+
+    /// The record again (unsealed: the cache that stores it gives it an id).
+    pub fn record(&self) -> Record {
+        let f = &self.fields;
+        let v = |at: usize| Vec3::new(f[at], f[at + 1], f[at + 2]);
+        Record::new(v(0), v(3), v(6), f[9])
+            .with_gradients([v(10), v(13), v(16)], [v(19), v(22), v(25)])
+    }
+
+    /// A digest of the fields' bits (FNV-1a), order-sensitive: what a sender and its receivers
+    /// compare.
+    pub fn digest(records: &[WireRecord]) -> u64 {
+        let mut h = Fnv::new();
+        for r in records {
+            for x in r.fields {
+                h.write(u64::from(x.to_bits()));
+            }
+            h.write(u64::from(r.origin));
+        }
+        h.finish()
+    }
+}
+
+/// FNV-1a over 64-bit words: the fingerprints and digests (deterministic across processes, which
+/// `std`'s hasher does not promise).
+struct Fnv(u64);
+
+impl Fnv {
+    fn new() -> Self {
+        Self(0xcbf2_9ce4_8422_2325)
+    }
+
+    fn write(&mut self, word: u64) {
+        for byte in word.to_le_bytes() {
+            self.0 ^= u64::from(byte);
+            self.0 = self.0.wrapping_mul(0x0100_0000_01b3);
+        }
+    }
+
+    fn finish(&self) -> u64 {
+        self.0
+    }
+}
+
+/// What every rank must agree on: a line a person can compare, and a fingerprint that also
+/// covers every vertex and material of the scene.
+pub fn fingerprint(
+    scene: &Scene,
+    camera: &Camera,
+    settings: &RenderSettings,
+    exchange: &Exchange,
+) -> (String, u64) {
+    let s = settings;
+    let line =
+        format!(
+        "scene {} ({} triangles), {}x{}, a {} smoothing {}, {} rays a record, {} light samples, {} spp, seed \
+         {:#x}, radius clamps {}-{} px, tile {}, eye {} target {}, batch {} records / {} ms, {}",
+        scene.name(),
+        scene.triangle_count(),
+        s.width,
+        s.height,
+        s.accuracy,
+        s.smoothing,
+        s.rays_per_record,
+        s.light_samples,
+        s.pixel_samples,
+        s.seed,
+        s.min_radius_pixels,
+        s.max_radius_pixels,
+        s.tile_size,
+        camera.eye,
+        camera.target,
+        exchange.batch_records,
+        exchange.batch_ms,
+        if exchange.share { "shared" } else { "not shared" },
+    );
+    let mut h = Fnv::new();
+    for b in line.bytes() {
+        h.write(u64::from(b));
+    }
+    for (vertices, material) in scene.triangles() {
+        for v in vertices {
+            for x in v.to_array() {
+                h.write(u64::from(x.to_bits()));
+            }
+        }
+        h.write(u64::from(material));
+    }
+    for m in scene.materials() {
+        for x in m.albedo.to_array().into_iter().chain(m.emission.to_array()) {
+            h.write(u64::from(x.to_bits()));
+        }
+    }
+    (line, h.finish())
+}
+
+/// The tiles of a frame handed out in chunks, the same way on every rank.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TilePlan {
+    /// Tiles in the frame.
+    pub count: usize,
+    /// The next tile no rank has been given.
+    pub next: usize,
+}
+
+impl TilePlan {
+    /// `count` tiles, none given out yet.
+    pub fn new(count: usize) -> Self {
+        Self { count, next: 0 }
+    }
+
+    /// One round: `queued[r]` tiles wait in rank `r`'s queue and `want[r]` is the number it
+    /// keeps queued (twice its threads): a rank below it gets `want[r]` more. Returns the tiles
+    /// each rank is given (ranges, in rank order), advancing `next`.
+    pub fn hand_out(&mut self, queued: &[u64], want: &[u64]) -> Vec<std::ops::Range<usize>> {
+        queued
+            .iter()
+            .zip(want)
+            .map(|(&q, &w)| {
+                let start = self.next;
+                if q < w {
+                    self.next = (start + w.max(1) as usize).min(self.count);
+                }
+                start..self.next
+            })
+            .collect()
+    }
+
+    /// Whether every tile has been given out.
+    pub fn exhausted(&self) -> bool {
+        self.next >= self.count
+    }
+}
+
+/// What one rank did in a distributed frame.
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct RankStats {
+    /// The rank.
+    pub rank: u32,
+    /// Its worker threads.
+    pub threads: usize,
+    /// Tiles it rendered.
+    pub tiles: usize,
+    /// Irradiance estimates it computed (hemisphere samplings).
+    pub ic_samples: u64,
+    /// Records it computed and stored in its own cache.
+    pub records_computed: u64,
+    /// Records it sent (each to every other rank).
+    pub records_sent: u64,
+    /// Records it received from the other ranks.
+    pub records_received: u64,
+    /// Received records its cache stored.
+    pub records_inserted: u64,
+    /// Bytes it sent (its records' payloads, once per other rank) and received.
+    pub bytes_sent: u64,
+    /// Bytes received.
+    pub bytes_received: u64,
+    /// Exchange rounds.
+    pub rounds: u64,
+    /// Seconds its MPI thread spent in the rounds' two collectives (the state's allgather and
+    /// the records' allgatherv), waiting for the slowest rank included.
+    pub collective_seconds: f64,
+    /// Seconds its MPI thread spent inserting the others' records into its cache.
+    pub insert_seconds: f64,
+    /// Digest of the records it sent, in order ([`WireRecord::digest`]).
+    pub sent_digest: u64,
+    /// Per other rank (by rank; its own entry 0): the digest of the records it received from
+    /// that rank, in order.
+    pub received_digests: Vec<u64>,
+    /// Records in its cache at the end.
+    pub cache_records: u64,
+    /// Seconds from the start of the frame to the end of its last round.
+    pub seconds: f64,
+}
+
+/// A distributed frame as rank 0 sees it.
+#[derive(Clone, Debug)]
+pub struct DistributedFrame {
+    /// The assembled image.
+    pub image: Image,
+    /// Every rank's statistics, by rank.
+    pub ranks: Vec<RankStats>,
+    /// Every rank's computed records (positions and normals as computed), with their rank.
+    pub records: Vec<(u32, Record)>,
+    /// Records computed where a record of another rank is also valid.
+    pub duplicates: u64,
+    /// Wall-clock seconds of the frame on rank 0 (agreement check to assembled image).
+    pub seconds: f64,
+}
+
+/// Why a distributed frame did not happen.
+#[derive(Clone, Debug, PartialEq)]
+pub enum DistributedError {
+    /// The ranks were not given the same scene and settings.
+    Mismatch {
+        /// This rank.
+        rank: u32,
+        /// This rank's settings line.
+        mine: String,
+        /// The ranks whose fingerprint differs from rank 0's.
+        differing: Vec<u32>,
+    },
+}
+
+impl fmt::Display for DistributedError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::Mismatch {
+                rank,
+                mine,
+                differing,
+            } => {
+                let list: Vec<String> = differing.iter().map(u32::to_string).collect();
+                write!(
+                    f,
+                    "rank {rank}: the ranks were not given the same scene and settings (rank(s) {} \
+                     differ from rank 0); every rank must run the same command. This rank has: \
+                     {mine}",
+                    list.join(", ")
+                )
+            }
+        }
+    }
+}
+
+impl std::error::Error for DistributedError {}
+
+/// A worker's handle that copies every record it stores into the rank's outbox (sent to the
+/// other ranks when the exchange shares, and kept for the duplicate count either way).
+struct Sending<'h, H> {
+    inner: &'h mut H,
+    outbox: &'h Mutex<Vec<Record>>,
+}
+
+impl<H: CacheHandle> CacheHandle for Sending<'_, H> {
+    fn worker(&self) -> WorkerId {
+        self.inner.worker()
+    }
+
+    fn lookup(&mut self, point: Vec3, normal: Vec3) -> Option<Interpolated> {
+        self.inner.lookup(point, normal)
+    }
+
+    fn insert(&mut self, record: Record) -> Result<Inserted, InsertError> {
+        let outcome = self.inner.insert(record)?;
+        if matches!(outcome, Inserted::Stored(_)) {
+            wfic::sync::unpoison(self.outbox.lock()).push(record);
+        }
+        Ok(outcome)
+    }
+
+    fn remove(&mut self, selection: &Selection) -> usize {
+        self.inner.remove(selection)
+    }
+
+    fn valid_records(&mut self, point: Vec3, normal: Vec3, out: &mut Vec<Record>) {
+        self.inner.valid_records(point, normal, out)
+    }
+
+    fn stats(&self) -> &wfic::cache::WorkerStats {
+        self.inner.stats()
+    }
+}
+
+/// The state a rank's workers and its main thread share during the frame.
+struct Shared {
+    queue: Mutex<VecDeque<usize>>,
+    /// No more tiles will come: every tile has been given out.
+    exhausted: AtomicBool,
+    /// Workers that have left the tile loop.
+    finished: AtomicUsize,
+    outbox: Mutex<Vec<Record>>,
+    tiles_done: AtomicUsize,
+}
+
+/// Renders one frame over the ranks of `world` (every rank calls this with the same scene,
+/// camera, settings and exchange; `threads` may differ between ranks). Rank 0 gets the frame;
+/// the others get `None`.
+///
+/// `fail` (for the failure tests): `Some((rank, exit))` makes that rank panic (or, with `exit`,
+/// leave the process with status 3) once it has rendered its first tile.
+///
+/// # Errors
+/// [`DistributedError::Mismatch`] on every rank when the ranks' scenes or settings differ.
+#[allow(clippy::too_many_arguments)]
+pub fn render_distributed(
+    world: &SimpleCommunicator,
+    scene: &Scene,
+    camera: &Camera,
+    settings: &RenderSettings,
+    config: CacheConfig,
+    threads: usize,
+    exchange: &Exchange,
+    fail: Option<(u32, bool)>,
+) -> Result<Option<DistributedFrame>, DistributedError> {
+    let frames = render_distributed_frames(
+        world,
+        scene,
+        std::slice::from_ref(camera),
+        settings,
+        config,
+        threads,
+        exchange,
+        fail,
+    )?;
+    Ok(frames.and_then(|mut f| f.pop()))
+}
+
+/// Renders one frame per camera, in order, over the ranks of `world`, each rank keeping its
+/// cache from frame to frame (the animation of the paper's §4.2, shared between processes): a
+/// frame's records, and the records the other ranks sent during it, serve every later frame.
+/// Rank 0 gets the frames; the others get `None`. Arguments and errors as
+/// [`render_distributed`]; the fingerprint covers every camera.
+///
+/// # Errors
+/// [`DistributedError::Mismatch`] on every rank when the ranks' scenes, cameras or settings
+/// differ.
+#[allow(clippy::too_many_arguments)]
+pub fn render_distributed_frames(
+    world: &SimpleCommunicator,
+    scene: &Scene,
+    cameras: &[Camera],
+    settings: &RenderSettings,
+    config: CacheConfig,
+    threads: usize,
+    exchange: &Exchange,
+    fail: Option<(u32, bool)>,
+) -> Result<Option<Vec<DistributedFrame>>, DistributedError> {
+    let rank = world.rank() as u32;
+    let size = world.size() as usize;
+    let threads = threads.max(1);
+    let Some(first) = cameras.first() else {
+        return Ok((rank == 0).then(Vec::new));
+    };
+
+    // Agreement: every rank gathers every fingerprint, so every rank reaches the same verdict.
+    let (mut line, print) = fingerprint(scene, first, settings, exchange);
+    let mut h = Fnv::new();
+    h.write(print);
+    h.write(cameras.len() as u64);
+    for c in cameras {
+        for x in c.eye.to_array().into_iter().chain(c.target.to_array()) {
+            h.write(u64::from(x.to_bits()));
+        }
+    }
+    let print = h.finish();
+    if cameras.len() > 1 {
+        line.push_str(&format!(", {} frames", cameras.len()));
+    }
+    let mut prints = vec![0u64; size];
+    world.all_gather_into(&print, &mut prints[..]);
+    let differing: Vec<u32> = (0..size as u32)
+        .filter(|&r| prints[r as usize] != prints[0])
+        .collect();
+    if !differing.is_empty() {
+        return Err(DistributedError::Mismatch {
+            rank,
+            mine: line,
+            differing,
+        });
+    }
+
+    let mut cache = WaitFree::<Minimal>::new(config, CasFailure::Adopt);
+    let mut frames = Vec::with_capacity(cameras.len());
+    for camera in cameras {
+        let start = Instant::now();
+        let integrator = PixelIntegrator::new(scene, camera, settings, config.accuracy());
+        let tiles = super::parallel::Tiles::new(settings);
+        let mut plan = TilePlan::new(tiles.count);
+        let shared = Shared {
+            queue: Mutex::new(VecDeque::new()),
+            exhausted: AtomicBool::new(false),
+            finished: AtomicUsize::new(0),
+            outbox: Mutex::new(Vec::new()),
+            tiles_done: AtomicUsize::new(0),
+        };
+        let mut stats = RankStats {
+            rank,
+            threads,
+            received_digests: vec![Fnv::new().finish(); size],
+            ..RankStats::default()
+        };
+        let mut sent_digest = Fnv::new();
+        let mut received_digest: Vec<Fnv> = (0..size).map(|_| Fnv::new()).collect();
+        let mut computed: Vec<Record> = Vec::new();
+
+        let frame = cache.frame();
+        let outputs = wfic::sync::thread::scope(|s| {
+            let render = s.spawn(|| {
+                frame.run(threads, |handle, _| {
+                    let mut handle = Sending {
+                        inner: handle,
+                        outbox: &shared.outbox,
+                    };
+                    let mut counters = SampleCounters::default();
+                    let mut out: Vec<(usize, Vec<Vec3>)> = Vec::new();
+                    loop {
+                        let tile = wfic::sync::unpoison(shared.queue.lock()).pop_front();
+                        let Some(tile) = tile else {
+                            // Acquire: pairs with the main thread's Release store, which it makes
+                            // after pushing the last tiles; a worker that sees `exhausted` and then
+                            // an empty queue has seen every tile its rank will get.
+                            if shared.exhausted.load(Ordering::Acquire)
+                                && wfic::sync::unpoison(shared.queue.lock()).is_empty()
+                            {
+                                break;
+                            }
+                            std::thread::sleep(Duration::from_micros(200));
+                            continue;
+                        };
+                        let (x0, y0, x1, y1) = tiles.rect(tile);
+                        let mut pixels = Vec::with_capacity(((x1 - x0) * (y1 - y0)) as usize);
+                        for y in y0..y1 {
+                            for x in x0..x1 {
+                                pixels.push(integrator.pixel(x, y, &mut handle, &mut counters));
+                            }
+                        }
+                        out.push((tile, pixels));
+                        // Relaxed: a count the main thread only reports; nothing is published
+                        // through it.
+                        shared.tiles_done.fetch_add(1, Ordering::Relaxed);
+                        if fail == Some((rank, false)) {
+                            panic!("rank {rank}: the failure asked for by --fail-rank");
+                        }
+                        if fail == Some((rank, true)) {
+                            eprintln!("rank {rank}: exiting as asked by --fail-rank");
+                            std::process::exit(3);
+                        }
+                    }
+                    // Release: pairs with the main thread's Acquire load; the worker's last
+                    // records are in the outbox (under its mutex) before it counts itself out.
+                    shared.finished.fetch_add(1, Ordering::Release);
+                    (out, counters)
+                })
+            });
+
+            // The rounds, on this (MPI's) thread, with a handle of their own for the others'
+            // records.
+            let mut remote = frame.handle_for(WorkerId::new(threads as u32));
+            let period = Duration::from_millis(exchange.batch_ms);
+            let mut last: Option<Instant> = None;
+            loop {
+                // Wait for the batch's size or time, or for the rank's workers to run dry.
+                loop {
+                    let pending = wfic::sync::unpoison(shared.outbox.lock()).len();
+                    let queued = wfic::sync::unpoison(shared.queue.lock()).len();
+                    if pending >= exchange.batch_records.max(1)
+                        || last.map_or(true, |l| l.elapsed() >= period)
+                        || (queued < threads && !plan.exhausted())
+                        || render.is_finished()
+                    {
+                        break;
+                    }
+                    std::thread::sleep(Duration::from_micros(250));
+                }
+                last = Some(Instant::now());
+                // Acquire: pairs with each worker's Release increment (see there): once every
+                // worker has counted itself out, the outbox taken below holds all its records.
+                let done = shared.finished.load(Ordering::Acquire) == threads;
+                let new = std::mem::take(&mut *wfic::sync::unpoison(shared.outbox.lock()));
+                let outgoing: Vec<WireRecord> = if exchange.share {
+                    new.iter().map(|r| WireRecord::new(r, rank)).collect()
+                } else {
+                    Vec::new()
+                };
+                for r in &outgoing {
+                    for x in r.fields {
+                        sent_digest.write(u64::from(x.to_bits()));
+                    }
+                    sent_digest.write(u64::from(r.origin));
+                }
+                computed.extend(new);
+                let queued = wfic::sync::unpoison(shared.queue.lock()).len() as u64;
+                let state = [
+                    queued,
+                    2 * threads as u64,
+                    u64::from(done && plan.exhausted()),
+                    outgoing.len() as u64,
+                ];
+                let mut states = vec![0u64; 4 * size];
+                let entered = Instant::now();
+                world.all_gather_into(&state[..], &mut states[..]);
+                let counts: Vec<Count> = (0..size).map(|r| states[4 * r + 3] as Count).collect();
+                let total: usize = counts.iter().map(|&c| c as usize).sum();
+                if total > 0 {
+                    let displs = displacements(&counts);
+                    let mut incoming = vec![WireRecord::default(); total];
+                    {
+                        let mut partition =
+                            PartitionMut::new(&mut incoming[..], &counts[..], &displs[..]);
+                        world.all_gather_varcount_into(&outgoing[..], &mut partition);
+                    }
+                    stats.collective_seconds += entered.elapsed().as_secs_f64();
+                    let inserting = Instant::now();
+                    let bytes = std::mem::size_of::<WireRecord>() as u64;
+                    stats.records_sent += outgoing.len() as u64;
+                    stats.bytes_sent += bytes * outgoing.len() as u64 * (size as u64 - 1);
+                    for r in incoming.iter().filter(|r| r.origin != rank) {
+                        stats.records_received += 1;
+                        stats.bytes_received += bytes;
+                        let d = &mut received_digest[r.origin as usize];
+                        for x in r.fields {
+                            d.write(u64::from(x.to_bits()));
+                        }
+                        d.write(u64::from(r.origin));
+                        if let Ok(Inserted::Stored(_)) = remote.insert(r.record()) {
+                            stats.records_inserted += 1;
+                        }
+                    }
+                    stats.insert_seconds += inserting.elapsed().as_secs_f64();
+                } else {
+                    stats.collective_seconds += entered.elapsed().as_secs_f64();
+                }
+                stats.rounds += 1;
+                // Every rank sees the same states, so every rank advances the plan the same way.
+                let queued: Vec<u64> = (0..size).map(|r| states[4 * r]).collect();
+                let want: Vec<u64> = (0..size).map(|r| states[4 * r + 1]).collect();
+                let all_done = (0..size).all(|r| states[4 * r + 2] == 1);
+                let given = plan.hand_out(&queued, &want);
+                wfic::sync::unpoison(shared.queue.lock()).extend(given[rank as usize].clone());
+                if plan.exhausted() {
+                    // Release: pairs with the workers' Acquire load (see there); the last tiles
+                    // are in the queue before it.
+                    shared.exhausted.store(true, Ordering::Release);
+                }
+                if all_done && total == 0 {
+                    break;
+                }
+            }
+            drop(remote);
+            render
+                .join()
+                .unwrap_or_else(|p| std::panic::resume_unwind(p))
+        });
+        stats.seconds = start.elapsed().as_secs_f64();
+        frame.close();
+        stats.cache_records = cache.stats().records as u64;
+        stats.sent_digest = sent_digest.finish();
+        stats.received_digests = received_digest.iter().map(Fnv::finish).collect();
+        stats.received_digests[rank as usize] = 0;
+        let mut counters = SampleCounters::default();
+        let mut mine: Vec<(usize, Vec<Vec3>)> = Vec::new();
+        for (out, c) in outputs {
+            mine.extend(out);
+            counters += c;
+        }
+        stats.tiles = mine.len();
+        stats.ic_samples = counters.ic_samples;
+        stats.records_computed = computed.len() as u64;
+
+        // Assembly on rank 0: tiles, statistics, computed records.
+        let root = world.process_at_rank(0);
+        let index: Vec<u64> = mine.iter().map(|(t, _)| *t as u64).collect();
+        let pixels: Vec<f32> = mine
+            .iter()
+            .flat_map(|(_, p)| p.iter().flat_map(|v| v.to_array()))
+            .collect();
+        let wire: Vec<WireRecord> = computed.iter().map(|r| WireRecord::new(r, rank)).collect();
+        let json = serde_json::to_string(&stats).expect("rank statistics serialise");
+        let gathered_index = gather(world, &root, &index);
+        let gathered_pixels = gather(world, &root, &pixels);
+        let gathered_records = gather(world, &root, &wire);
+        let gathered_json = gather(world, &root, json.as_bytes());
+        if rank != 0 {
+            continue;
+        }
+        let (index, pixels, wire, json) = (
+            gathered_index.expect("rank 0 gathers"),
+            gathered_pixels.expect("rank 0 gathers"),
+            gathered_records.expect("rank 0 gathers"),
+            gathered_json.expect("rank 0 gathers"),
+        );
+        let mut image = Image::new(settings.width, settings.height);
+        for (tiles_of_rank, pixels_of_rank) in index.iter().zip(&pixels) {
+            let mut at = 0;
+            for tile in tiles_of_rank {
+                let (x0, y0, x1, y1) = tiles.rect(*tile as usize);
+                for y in y0..y1 {
+                    for x in x0..x1 {
+                        image.set(x, y, Vec3::from_slice(&pixels_of_rank[at..at + 3]));
+                        at += 3;
+                    }
+                }
+            }
+        }
+        let ranks: Vec<RankStats> = json
+            .iter()
+            .map(|b| serde_json::from_slice(b).expect("a rank's statistics parse"))
+            .collect();
+        let records: Vec<(u32, Record)> = wire
+            .iter()
+            .flatten()
+            .map(|w| (w.origin, w.record()))
+            .collect();
+        let duplicates = count_duplicates(&records, config.accuracy());
+        frames.push(DistributedFrame {
+            image,
+            ranks,
+            records,
+            duplicates,
+            seconds: start.elapsed().as_secs_f64(),
+        });
+    }
+    Ok((rank == 0).then_some(frames))
+}
+
+/// Records computed where a record that another rank computed is also valid (Ward's weight at the
+/// record's own position and normal): work another rank had done or was doing.
+pub fn count_duplicates(records: &[(u32, Record)], accuracy: f32) -> u64 {
+    records
+        .iter()
+        .filter(|(rank, r)| {
+            records.iter().any(|(other, o)| {
+                other != rank && ic::valid_weight(o, r.position, r.normal, accuracy).is_some()
+            })
+        })
+        .count() as u64
+}
+
+/// Where each rank's part starts in a variable-count buffer: the running sum of `counts`.
+fn displacements(counts: &[Count]) -> Vec<Count> {
+    counts
+        .iter()
+        .scan(0, |at, &c| {
+            let d = *at;
+            *at += c;
+            Some(d)
+        })
+        .collect()
+}
+
+/// Gathers every rank's `mine` on rank 0 (`MPI_Gatherv`), by rank; `None` on the other ranks.
+fn gather<T: Equivalence + Default + Clone>(
+    world: &SimpleCommunicator,
+    root: &mpi::topology::Process<'_>,
+    mine: &[T],
+) -> Option<Vec<Vec<T>>> {
+    let size = world.size() as usize;
+    let n = mine.len() as Count;
+    if world.rank() == 0 {
+        let mut counts = vec![0 as Count; size];
+        root.gather_into_root(&n, &mut counts[..]);
+        let displs = displacements(&counts);
+        let mut all = vec![T::default(); counts.iter().map(|&c| c as usize).sum()];
+        {
+            let mut partition = PartitionMut::new(&mut all[..], &counts[..], &displs[..]);
+            root.gather_varcount_into_root(mine, &mut partition);
+        }
+        let mut out = Vec::with_capacity(size);
+        for (d, c) in displs.iter().zip(&counts) {
+            out.push(all[*d as usize..(*d + *c) as usize].to_vec());
+        }
+        Some(out)
+    } else {
+        root.gather_into(&n);
+        root.gather_varcount_into(mine);
+        None
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_record_crosses_the_wire_whole() {
+        let r = Record::new(
+            Vec3::new(1.0, 2.0, 3.0),
+            Vec3::Z,
+            Vec3::new(0.1, 0.2, 0.3),
+            0.7,
+        )
+        .with_gradients(
+            [Vec3::X, Vec3::Y * 2.0, Vec3::Z * 3.0],
+            [Vec3::ONE, Vec3::NEG_ONE, Vec3::splat(0.5)],
+        );
+        let w = WireRecord::new(&r, 5);
+        let back = w.record();
+        assert_eq!(back.position, r.position);
+        assert_eq!(back.normal, r.normal);
+        assert_eq!(back.irradiance, r.irradiance);
+        assert_eq!(back.radius, r.radius);
+        assert_eq!(back.grad_t, r.grad_t);
+        assert_eq!(back.grad_r, r.grad_r);
+        assert_eq!(w.origin, 5);
+        // The digest sees every field and the order.
+        let mut other = w;
+        other.fields[27] += 1.0;
+        assert_ne!(WireRecord::digest(&[w]), WireRecord::digest(&[other]));
+        assert_ne!(
+            WireRecord::digest(&[w, other]),
+            WireRecord::digest(&[other, w])
+        );
+    }
+
+    #[test]
+    fn tiles_go_to_the_ranks_short_of_work_in_rank_order() {
+        let mut plan = TilePlan::new(10);
+        // Both ranks empty: rank 0 (2 threads: wants 4) gets 0..4, rank 1 (1 thread) 4..6.
+        assert_eq!(plan.hand_out(&[0, 0], &[4, 2]), vec![0..4, 4..6]);
+        // Rank 0 still has 4 (not below its 4), rank 1 has 1: only rank 1 gets more.
+        assert_eq!(plan.hand_out(&[4, 1], &[4, 2]), vec![6..6, 6..8]);
+        assert!(!plan.exhausted());
+        // The last chunk is short; then nothing is left.
+        assert_eq!(plan.hand_out(&[0, 0], &[4, 2]), vec![8..10, 10..10]);
+        assert!(plan.exhausted());
+        assert_eq!(plan.hand_out(&[0, 0], &[4, 2]), vec![10..10, 10..10]);
+    }
+
+    #[test]
+    fn duplicates_are_records_another_rank_covered() {
+        let at = |x: f32| Record::new(Vec3::new(x, 0.0, 0.0), Vec3::Z, Vec3::ONE, 1.0);
+        // Ranks 0 and 1 at almost the same place: both duplicates; rank 1's far record is not.
+        let records = vec![(0, at(0.0)), (1, at(0.01)), (1, at(50.0))];
+        assert_eq!(count_duplicates(&records, 0.25), 2);
+        // The same two points from one rank: not duplicates.
+        let records = vec![(0, at(0.0)), (0, at(0.01))];
+        assert_eq!(count_duplicates(&records, 0.25), 0);
+    }
+}

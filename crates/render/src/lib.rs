@@ -1,0 +1,219 @@
+//! A compact, real renderer that drives the caches end to end (DESIGN.md, layer 5).
+//!
+//! One module per job, as pbrt-v4 organises a renderer:
+//!
+//! * [`scene`] — triangles, diffuse materials, emissive triangles, the BVH (obvhs);
+//! * [`scenes`] — the paper's five scenes, all real models: the Cornell box from the published
+//!   data, Sponza, the Conference Room, the Office and its Desk view, compiled in from `scenes/`
+//!   (`scenes/README.md`; `paper-notes.md`, section "The renderer and its five scenes");
+//! * [`lights`] — the area lights grouped into emitters, chosen per point by power over distance;
+//! * [`obj`] — Wavefront OBJ/MTL loading for user scenes;
+//! * [`camera`] — pinhole camera and the orbit of the paper's animations;
+//! * [`sampler`] — per-pixel deterministic random numbers;
+//! * [`integrator`] — per-sample radiance (`Li`): direct light and one indirect diffuse bounce
+//!   through the cache (lookup, else a hemisphere estimate with limited gradients, inserted);
+//! * [`film`] — the HDR image, PNG/PFM output, the record overlay, relative RMSE;
+//! * [`parallel`] — the render loop: image tiles handed out to the workers of one cache frame,
+//!   on scoped threads or a rayon pool;
+//! * [`stats`] — what a frame counts, and its JSON form;
+//! * [`cli`] — the `wfic render` subcommand.
+//!
+//! ```no_run
+//! use wfic::cache::{wf::Minimal, CasFailure, WaitFree};
+//! use wfic_render::{self, scenes, Camera, RenderSettings};
+//!
+//! let scene = scenes::cornell().unwrap();
+//! let settings = RenderSettings::new(128, 128);
+//! let config = settings.cache_config(&scene).unwrap();
+//! let mut cache = WaitFree::<Minimal>::new(config, CasFailure::Adopt);
+//! for frame in 0..4 {
+//!     let camera = Camera::orbit(&scene, frame as f32 / 4.0);
+//!     let out = render::render_frame(&scene, &camera, &settings, &mut cache, 2);
+//!     println!("frame {frame}: {:.3} s, {} records computed", out.stats.seconds, out.stats.ic_samples);
+//! }
+//! ```
+//!
+//! The renderer has no `unsafe` code: the cache is its only shared mutable state, apart from the
+//! tile counter (a Relaxed atomic from [`wfic::sync`]) and the progress bar.
+#![forbid(unsafe_code)]
+#![warn(missing_docs)]
+// Under the core's model checkers (features `loom`, `shuttle`: `cfg(checker)`, set by the
+// workspace's build.rs) the renderer is not built: their primitives work inside models only.
+#![cfg(not(checker))]
+
+pub mod camera;
+#[cfg(feature = "mpi")]
+pub mod distributed;
+pub mod film;
+pub mod flat;
+pub mod integrator;
+pub mod lights;
+pub mod obj;
+pub mod parallel;
+pub mod sampler;
+pub mod scene;
+pub mod scenes;
+pub mod stats;
+
+pub use camera::{Camera, Orbit};
+pub use film::Image;
+pub use parallel::{
+    render_frame, render_orbit, render_reference, render_reference_grid, render_with_scheme,
+    FrameResult, Pool,
+};
+pub use scene::{Material, Scene, SceneBuilder, SceneError};
+pub use stats::FrameStats;
+
+use wfic::cache::{CacheConfig, ConfigError};
+use integrator::Strata;
+
+/// How a frame is rendered: image size, sampling and the cache's radius clamps.
+///
+/// The record radius (Ward's `R_i`, the clamped harmonic mean distance) is clamped to
+/// `[r_min, r_max]` with
+/// `r_min = max(min_radius_pixels * footprint, min_radius_scene * diagonal)` and
+/// `r_max = max(r_min, min(max_radius_pixels * footprint, max_radius_scene * diagonal))`, where
+/// `footprint` is the side of one pixel at the shaded point and `diagonal` the scene's size. The
+/// pixel bounds keep record density tied to what the image resolves (Tabellion & Lamorlette 2004,
+/// Křivánek et al. 2008); the scene bounds keep records sane when the footprint is tiny (a wall
+/// next to the eye) or huge (a far wall at a grazing angle).
+#[derive(Clone, Debug, PartialEq)]
+pub struct RenderSettings {
+    /// Image width in pixels.
+    pub width: u32,
+    /// Image height in pixels.
+    pub height: u32,
+    /// Ward's accuracy `a` for the cache ([`RenderSettings::cache_config`]).
+    pub accuracy: f32,
+    /// Hemisphere rays per irradiance estimate (rounded to `M x N` strata).
+    pub rays_per_record: u32,
+    /// The smoothing `k` (at least 1): a pixel interpolates every record valid at accuracy
+    /// `k a`, but a new record is computed only where none is valid at `a`. The records are the
+    /// ones `k = 1` computes; each pixel averages more of them, so their sampling noise averages
+    /// down, for some interpolation error (`paper-notes.md`, "Radiance side by side"). 1, the
+    /// default, is Ward's cache as the paper has it.
+    pub smoothing: f32,
+    /// Light samples (shadow rays) for the direct term at each primary hit. The default, 16,
+    /// is the count at which the direct light's noise in the Cornell box falls below
+    /// Radiance's deterministic sampling at its defaults (`paper-notes.md`, "Radiance side by
+    /// side"); 8, the earlier default, left it above on every scene but Sponza.
+    pub light_samples: u32,
+    /// Primary rays per pixel (stratified jitter, box filter). Each primary hit is shaded on its
+    /// own, so each makes its own cache lookup, as in a renderer that antialiases. 1 shoots one
+    /// ray through the pixel's centre.
+    pub pixel_samples: u32,
+    /// Lower radius clamp, in pixel footprints.
+    pub min_radius_pixels: f32,
+    /// Upper radius clamp, in pixel footprints.
+    pub max_radius_pixels: f32,
+    /// Lower radius clamp, as a fraction of the scene's diagonal.
+    pub min_radius_scene: f32,
+    /// Upper radius clamp, as a fraction of the scene's diagonal.
+    pub max_radius_scene: f32,
+    /// Side of the square tiles handed to workers, in pixels.
+    pub tile_size: u32,
+    /// Seed of every pixel's random streams.
+    pub seed: u64,
+    /// Hide the progress bar.
+    pub quiet: bool,
+    /// Where the workers run.
+    pub pool: Pool,
+}
+
+impl RenderSettings {
+    /// Defaults for a `width` x `height` image.
+    pub fn new(width: u32, height: u32) -> Self {
+        Self {
+            width,
+            height,
+            accuracy: 0.25,
+            rays_per_record: 512,
+            smoothing: 1.0,
+            light_samples: 16,
+            pixel_samples: 1,
+            min_radius_pixels: 6.0,
+            max_radius_pixels: 120.0,
+            min_radius_scene: 0.002,
+            max_radius_scene: 0.25,
+            tile_size: 16,
+            seed: 0x5eed,
+            quiet: true,
+            pool: Pool::Scoped,
+        }
+    }
+
+    /// Sets the accuracy.
+    pub fn accuracy(mut self, a: f32) -> Self {
+        self.accuracy = a;
+        self
+    }
+
+    /// Sets the hemisphere rays per record.
+    pub fn rays_per_record(mut self, rays: u32) -> Self {
+        self.rays_per_record = rays;
+        self
+    }
+
+    /// Sets the smoothing `k` ([`RenderSettings::smoothing`]).
+    pub fn smoothing(mut self, k: f32) -> Self {
+        self.smoothing = k;
+        self
+    }
+
+    /// Sets the light samples per primary hit.
+    pub fn light_samples(mut self, n: u32) -> Self {
+        self.light_samples = n;
+        self
+    }
+
+    /// Sets the primary rays per pixel.
+    pub fn pixel_samples(mut self, n: u32) -> Self {
+        self.pixel_samples = n;
+        self
+    }
+
+    /// Sets the seed.
+    pub fn seed(mut self, seed: u64) -> Self {
+        self.seed = seed;
+        self
+    }
+
+    /// Shows (`false`) or hides (`true`) the progress bar.
+    pub fn quiet(mut self, quiet: bool) -> Self {
+        self.quiet = quiet;
+        self
+    }
+
+    /// Runs the workers on `pool`.
+    pub fn pool(mut self, pool: Pool) -> Self {
+        self.pool = pool;
+        self
+    }
+
+    /// The strata of one irradiance estimate.
+    pub fn strata(&self) -> Strata {
+        Strata::for_rays(self.rays_per_record)
+    }
+
+    /// A cache configuration for `scene`: its bounds enlarged by 1% of the diagonal on every
+    /// side (so points on the outer walls are well inside), at the accuracy lookups interpolate
+    /// at, `smoothing * accuracy`. A smoothing below 1 (or not finite) is refused.
+    pub fn cache_config(&self, scene: &Scene) -> Result<CacheConfig, ConfigError> {
+        if !(self.smoothing >= 1.0 && self.smoothing.is_finite()) {
+            return Err(ConfigError::Smoothing(self.smoothing));
+        }
+        let (lo, hi) = scene.bounds();
+        let margin = 0.01 * scene.diagonal();
+        CacheConfig::new(lo - margin, hi + margin, self.accuracy * self.smoothing)
+    }
+
+    /// The radius clamps at a point whose pixel footprint is `footprint`, for a scene of size
+    /// `diagonal`: `(r_min, r_max)` as documented on the type.
+    pub fn radius_bounds(&self, footprint: f32, diagonal: f32) -> (f32, f32) {
+        let r_min = (self.min_radius_pixels * footprint).max(self.min_radius_scene * diagonal);
+        let r_max = (self.max_radius_pixels * footprint)
+            .min(self.max_radius_scene * diagonal)
+            .max(r_min);
+        (r_min, r_max)
+    }
+}
