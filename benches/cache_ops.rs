@@ -38,11 +38,12 @@ use std::hint::black_box;
 use std::sync::Barrier;
 use std::thread;
 use std::time::{Duration, Instant};
-use wfic::cache::wf::{Minimal, ReadFence, SeqCstEverywhere};
+use wfic::cache::wf::Minimal;
 use wfic::cache::{
     CacheConfig, CacheHandle, CasFailure, IrradianceCache, LocalWrite, Locked, MutexFlavour,
     RwLockFlavour, Sequential, WaitFree,
 };
+use wfic::research::orderings::{ReadFence, SeqCstEverywhere};
 
 // ---------------------------------------------------------------------------------------------
 // The caches under test

@@ -42,10 +42,11 @@ use std::path::PathBuf;
 use std::sync::{mpsc, Arc};
 use std::thread;
 use std::time::{Duration, Instant};
-use wfic::cache::wf::{Minimal, MinimalControl, Orderings, ReadFence, SeqCstEverywhere};
+use wfic::cache::wf::{Minimal, Orderings};
 use wfic::cache::{CacheHandle, CasFailure, IrradianceCache, WaitFree, WfHandle};
 use wfic::ic::Record;
 use wfic::ic::WorkerId;
+use wfic::research::orderings::{MinimalControl, ReadFence, SeqCstEverywhere};
 
 const GROUPS: [&str; 4] = ["lookup-1t", "insert-1t", "lookup-2t", "insert-2t"];
 const POLICIES: [&str; 5] = [

@@ -1,36 +1,38 @@
 //! # wfic — sharing an irradiance cache between rendering threads
 //!
-//! An implementation and verification study of Dubla, Debattista, Santos and Chalmers,
-//! *Wait-Free Shared-Memory Irradiance Cache* (EGPGV 2009): the sequential cache (TRA), a lock (LCK),
-//! per-thread local writes merged at frame end (LW) and the wait-free octree (WF), behind one trait.
+//! The four schemes of Dubla, Debattista, Santos and Chalmers, *Wait-Free Shared-Memory
+//! Irradiance Cache* (EGPGV 2009) behind one trait, [`cache::IrradianceCache`]: the sequential
+//! cache (TRA, [`cache::Sequential`]), a lock (LCK, [`cache::Locked`]), per-thread local writes
+//! merged at the frame's end (LW, [`cache::LocalWrite`]) and the wait-free octree (WF,
+//! [`cache::WaitFree`]), with the no-cache reference ([`cache::NoCache`]).
 //!
-//! Layers, each using only the ones above it:
+//! This crate is the core a renderer embeds. Modules, each using only the ones above it:
 //!
-//! 1. [`sync`] — the only module naming atomics, `UnsafeCell`, threads and locks (std, loom or
-//!    shuttle); [`rng`] — the crate's one random-number generator (SplitMix64).
-//! 2. [`ic`] — irradiance-cache mathematics: records, Ward's weight, validity, interpolation.
-//! 3. [`cache`] — the four schemes and the no-cache reference behind
-//!    [`cache::IrradianceCache`], the frame protocol ([`cache::Frame`]) and the scheme list
+//! 1. [`sync`] — the only module naming atomics, `UnsafeCell`, threads and locks (std, or loom's
+//!    or shuttle's under the features of those names, so the models check the code that ships);
+//!    [`rng`] — a small deterministic generator (SplitMix64).
+//! 2. [`ic`] — irradiance-cache mathematics: records, Ward's weight and validity test, the
+//!    clamped radius, gradients, weighted interpolation, removal selections.
+//! 3. [`cache`] — the schemes, the frame protocol ([`cache::Frame`]: one handle per worker id,
+//!    every handle's state back to the cache, the frame closed once) and the scheme list
 //!    ([`cache::Scheme`]).
-//! 4. [`lincheck`] — concurrent histories and their checkers: linearizability against a
-//!    sequential specification, and set consistency.
-//! 5. `render` — a compact renderer that drives the caches end to end (feature `renderer`, on
-//!    by default; not built under the model checkers); [`workload`] — a synthetic renderer-like workload for the demo and the
-//!    benchmarks.
-//! 6. `experiment` — the paper's experiments (Table 1, Figures 1–3) as code: Markdown, CSV, PNG
-//!    and SVG plots (feature `renderer`; not built under the model checkers).
-//! 7. `main.rs` — the `wfic` command line.
+//! 4. [`research`] — what only the checkers, the ordering study and the benchmarks need: the
+//!    linearizability and set-consistency checkers, the brute-force oracle, the octree geometry,
+//!    the extra ordering policies and a synthetic workload. No stability promise.
 //!
-//! The paper mapped to the code, and every deviation from it, is in `paper-notes.md`.
+//! Features: `rayon` (`cache::Frame::run_on_pool`); `loom` and `shuttle` swap the [`sync`]
+//! primitives for a model checker's (one at a time). The renderer (`wfic-render`) and the
+//! experiments with the `wfic` command line (`wfic-experiments`) are the workspace's member
+//! crates and use only this crate's public API. The design, the proofs and the paper mapped to
+//! the code are in the repository's `docs/` and `paper-notes.md`.
 #![warn(missing_docs)]
 #![deny(unsafe_op_in_unsafe_fn)]
 
 pub mod cache;
 pub mod ic;
-pub mod lincheck;
+pub mod research;
 pub mod rng;
 pub mod sync;
-pub mod workload;
 
 /// The README's example, compiled and run as a doctest.
 #[doc = include_str!("../README.md")]

@@ -8,8 +8,9 @@ mod common;
 use common::{for_each_scheme, w, SchemeCheck, SCHEMES};
 use glam::Vec3;
 use proptest::prelude::*;
-use wfic::cache::{BruteForce, CacheConfig, CacheHandle, IrradianceCache};
+use wfic::cache::{CacheConfig, CacheHandle, IrradianceCache};
 use wfic::ic::{self, Record};
+use wfic::research::BruteForce;
 
 fn unit(v: Vec3) -> Vec3 {
     let n = v.normalize_or_zero();

@@ -15,7 +15,7 @@ use wfic::cache::{
     RwLockFlavour, WaitFree,
 };
 use wfic::ic::{InsertError, Interpolated, Record, RecordId, Selection, WorkerId};
-use wfic::lincheck::{
+use wfic::research::lincheck::{
     self, check, check_set_consistency, shrink, shrink_nonlinearizable, CacheOp, CacheRet,
     CacheSpec, History, HistoryBuilder, InsertId, Recorder, RecordingHandle, SetViolation,
     Specification,

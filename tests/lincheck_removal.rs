@@ -13,7 +13,7 @@ use wfic::cache::{
     RwLockFlavour, WaitFree, WorkerStats,
 };
 use wfic::ic::{InsertError, Interpolated, Record, RecordId, Selection, WorkerId};
-use wfic::lincheck::{
+use wfic::research::lincheck::{
     check, check_set_consistency, shrink_nonlinearizable, CacheOp, CacheRet, CacheSpec, History,
     HistoryBuilder, Recorder, RecordingHandle, SetViolation,
 };

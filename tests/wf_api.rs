@@ -5,7 +5,9 @@
 
 use glam::Vec3;
 use std::collections::HashSet;
-use wfic::cache::{CacheConfig, CacheHandle, CasFailure, Inserted, IrradianceCache, WaitFree};
+use wfic::cache::{
+    CacheConfig, CacheHandle, CasFailure, Inserted, IrradianceCache, Scheme, WaitFree,
+};
 use wfic::ic::Record;
 
 fn config() -> CacheConfig {
@@ -16,8 +18,8 @@ fn config() -> CacheConfig {
 fn the_constructors_set_the_policy() {
     assert_eq!(WaitFree::adopt(config()).policy(), CasFailure::Adopt);
     assert_eq!(WaitFree::discard(config()).policy(), CasFailure::Discard);
-    assert_eq!(WaitFree::adopt(config()).scheme(), "wf");
-    assert_eq!(WaitFree::discard(config()).scheme(), "wf-discard");
+    assert_eq!(WaitFree::adopt(config()).scheme(), Scheme::Wf);
+    assert_eq!(WaitFree::discard(config()).scheme(), Scheme::WfDiscard);
 }
 
 #[test]

@@ -3,15 +3,15 @@
 //! site, and a model must catch it — by the causality (data-race) report the weakening opens, not
 //! by any panic: each test asserts the kind of report loom 0.7 gives and the file that created the
 //! racing object. The paper-literal list (Listing 6: no publication flag) is refuted the same way.
-//! See the table in `paper-notes.md`.
+//! The table of which ordering each site needs is in `docs/verification.md`.
 #![cfg(feature = "loom")]
 
 mod loom_common;
 
 use loom_common::models::*;
 use loom_common::{expect_failure, model_outcomes};
-use wfic::cache::wf::orderings::{BlindRemove, PaperLiteral, Site, Unhelped, Weakened};
 use wfic::cache::CasFailure;
+use wfic::research::orderings::{BlindRemove, PaperLiteral, Site, Unhelped, Weakened};
 
 /// The kinds of causality report loom 0.7 gives (`loom/src/rt/cell.rs`, `rt/atomic.rs`) that our
 /// weakenings produce. Each is the exact sentence loom prints, period included.

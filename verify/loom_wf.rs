@@ -16,8 +16,9 @@ mod loom_common;
 
 use loom_common::models::*;
 use loom_common::{model, model_outcomes};
-use wfic::cache::wf::{Minimal, ReadFence, SeqCstEverywhere};
+use wfic::cache::wf::Minimal;
 use wfic::cache::CasFailure;
+use wfic::research::orderings::{ReadFence, SeqCstEverywhere};
 
 #[test]
 fn two_inserts_into_one_list_minimal() {

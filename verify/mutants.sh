@@ -22,7 +22,7 @@
 # Output: results/mutants/<scope>/ holds cargo-mutants' own files (caught.txt, missed.txt,
 # timeout.txt, unviable.txt, outcomes.json) of the last stage, with every stage's results
 # accumulated, plus summary.md: the commands, the commit, the counts. The equivalent mutants,
-# argued one line each, are in paper-notes.md ("Mutation testing").
+# argued one line each, are in docs/verification.md ("Mutation testing").
 #
 # Time on the 2-core CI machine: wf about 40 min, ic about 15 min, lincheck under an hour, cache
 # about 45 min (a mutant costs a 2-30 s incremental build plus its suite; the cache scope builds
@@ -124,7 +124,7 @@ if timeouts:
     md += [f"- `{m}` (stage {next(k for k, st in enumerate(stages, 1) if m in lines(st / 'timeout.txt'))})"
            for m in timeouts]
 if missed:
-    md += ["", "Each missed mutant is argued equivalent in `paper-notes.md` (\"Mutation testing\")."]
+    md += ["", "Each missed mutant is argued equivalent in `docs/verification.md` (\"Mutation testing\")."]
 (out / "summary.md").write_text("\n".join(md) + "\n")
 print("\n".join(md))
 PY

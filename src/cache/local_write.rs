@@ -24,15 +24,15 @@
 //! A worker's local records reach the merge however its handle ends: dropped at the end of its
 //! work, or unwound by a panic (the records it holds were each inserted whole).
 //!
-//! Deviations from Listing 5 (see `paper-notes.md`): the listing consults the local cache only when
+//! Deviations from Listing 5 (`paper-notes.md` lists them all): the listing consults the local cache only when
 //! the global one *found* something (`if (inIC)`, a slip for `if (!inIC)`); and even corrected it
 //! would answer from one of the two caches. Here one lookup averages the valid records of both,
 //! which is exactly what a single merged cache would answer.
 
-use super::frame::{Ledger, Local};
+use super::frame::{collect_valid, HandleCore, Ledger, Local};
 use super::{
-    collect_valid, CacheConfig, CacheHandle, CacheStats, FrameReport, HandleCore, Inserted,
-    IrradianceCache, Octree, WorkerStats,
+    CacheConfig, CacheHandle, CacheStats, FrameReport, Inserted, IrradianceCache, Octree, Scheme,
+    WorkerStats,
 };
 use crate::ic::{InsertError, Interpolated, Record, Selection, WorkerId};
 use glam::Vec3;
@@ -85,8 +85,8 @@ pub struct LwHandle<'c> {
 impl IrradianceCache for LocalWrite {
     type Handle<'c> = LwHandle<'c>;
 
-    fn scheme(&self) -> &'static str {
-        "lw"
+    fn scheme(&self) -> Scheme {
+        Scheme::Lw
     }
 
     fn config(&self) -> &CacheConfig {

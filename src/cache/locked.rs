@@ -6,10 +6,10 @@
 //! the lock; only when that fails is the wait timed, so an uncontended acquisition costs no clock
 //! reads. The time spent waiting is summed over workers (the paper's LCK overhead in Table 1).
 
-use super::frame::Ledger;
+use super::frame::{collect_valid, HandleCore, Ledger};
 use super::{
-    collect_valid, CacheConfig, CacheHandle, CacheStats, FrameReport, HandleCore, Inserted,
-    IrradianceCache, Octree, WorkerStats,
+    CacheConfig, CacheHandle, CacheStats, FrameReport, Inserted, IrradianceCache, Octree, Scheme,
+    WorkerStats,
 };
 use crate::ic::{InsertError, Interpolated, Record, Selection, WorkerId};
 use crate::sync::{
@@ -34,7 +34,8 @@ pub trait LockFlavour: sealed::Sealed + Send + Sync {
     where
         Self: 'a;
     /// The scheme name.
-    const NAME: &'static str;
+    /// The scheme this flavour is.
+    const SCHEME: super::Scheme;
     /// Wraps `tree`.
     fn new(tree: Octree) -> Self;
     /// Takes the lock for reading if it is free now.
@@ -65,7 +66,7 @@ impl sealed::Sealed for RwLockFlavour {}
 impl LockFlavour for MutexFlavour {
     type Read<'a> = MutexGuard<'a, Octree>;
     type Write<'a> = MutexGuard<'a, Octree>;
-    const NAME: &'static str = "lck";
+    const SCHEME: super::Scheme = super::Scheme::Lck;
     fn new(tree: Octree) -> Self {
         Self(Mutex::new(tree))
     }
@@ -89,7 +90,7 @@ impl LockFlavour for MutexFlavour {
 impl LockFlavour for RwLockFlavour {
     type Read<'a> = RwLockReadGuard<'a, Octree>;
     type Write<'a> = RwLockWriteGuard<'a, Octree>;
-    const NAME: &'static str = "lck-rw";
+    const SCHEME: super::Scheme = super::Scheme::LckRw;
     fn new(tree: Octree) -> Self {
         Self(RwLock::new(tree))
     }
@@ -166,8 +167,8 @@ impl<F: LockFlavour> IrradianceCache for Locked<F> {
     where
         F: 'c;
 
-    fn scheme(&self) -> &'static str {
-        F::NAME
+    fn scheme(&self) -> Scheme {
+        F::SCHEME
     }
 
     fn config(&self) -> &CacheConfig {
@@ -350,7 +351,7 @@ mod tests {
             alone.insert(record(0.5 + 0.03 * k as f32)).unwrap();
             alone.lookup(Vec3::new(1.0, 1.0, 1.0), Vec3::Z);
         }
-        assert_eq!(alone.stats().lock_wait, Duration::ZERO, "{}", F::NAME);
+        assert_eq!(alone.stats().lock_wait, Duration::ZERO, "{}", F::SCHEME);
 
         let held = Duration::from_millis(30);
         for insert in [false, true] {
@@ -377,7 +378,7 @@ mod tests {
             assert!(
                 waited >= held / 2,
                 "{}: {} waited {waited:?} behind a lock held for {held:?}",
-                F::NAME,
+                F::SCHEME,
                 if insert { "an insert" } else { "a lookup" }
             );
         }

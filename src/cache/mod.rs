@@ -5,7 +5,7 @@
 //! | TRA | [`Sequential`] | Listing 3 |
 //! | LCK | [`Locked`] (`Mutex` or `RwLock`) | Listing 4 |
 //! | LW  | [`LocalWrite`] | Listing 5 |
-//! | WF  | [`WaitFree`] (`Adopt` or `Discard`) | Listing 6, with the fixes in `paper-notes.md` |
+//! | WF  | [`WaitFree`] (`Adopt` or `Discard`) | Listing 6, with the two fixes of `docs/design.md` |
 //!
 //! plus [`NoCache`], the no-cache reference, behind the same trait.
 //!
@@ -19,8 +19,7 @@ pub mod frame;
 mod local_write;
 mod locked;
 mod none;
-pub mod octree;
-mod oracle;
+pub(crate) mod octree;
 mod scheme;
 mod sequential;
 pub mod wf;
@@ -31,17 +30,14 @@ pub use frame::Frame;
 pub use local_write::{LocalWrite, LwHandle};
 pub use locked::{LckHandle, LockFlavour, Locked, MutexFlavour, RwLockFlavour};
 pub use none::{NoCache, NoCacheHandle};
-pub use oracle::BruteForce;
+pub use octree::Cell;
 pub use scheme::{CacheJob, Rgb8, Scheme};
 pub use sequential::{Octree, SeqHandle, Sequential};
 pub use wf::{CasFailure, WaitFree, WfHandle};
 
-use crate::ic::{
-    self, Accumulator, InsertError, Interpolated, Record, RecordId, Selection, WorkerId,
-};
-use frame::{Deposit, Ledger, Local};
+use crate::ic::{self, InsertError, Interpolated, Record, RecordId, Selection, WorkerId};
 use glam::Vec3;
-use octree::{Cell, Geometry};
+use octree::Geometry;
 use std::fmt;
 use std::ops::AddAssign;
 use std::time::Duration;
@@ -266,8 +262,8 @@ pub trait IrradianceCache: Send + Sync {
     where
         Self: 'c;
 
-    /// The scheme's short name, as the CLI spells it ([`Scheme::name`]).
-    fn scheme(&self) -> &'static str;
+    /// Which scheme this cache is ([`Scheme::name`] spells it as the command line does).
+    fn scheme(&self) -> Scheme;
 
     /// The cache's configuration.
     fn config(&self) -> &CacheConfig;
@@ -333,7 +329,7 @@ pub trait CacheHandle {
     /// * WF: every record whose insert happens-before the call, concurrently with the other
     ///   workers' lookups and inserts and wait-free (one compare-and-swap per selected record,
     ///   never retried); a record inserted concurrently may stay. A lookup that happens-after the
-    ///   call never returns a record it removed (the exact guarantee: `paper-notes.md`,
+    ///   call never returns a record it removed (the exact guarantee: `docs/design.md`,
     ///   removal). Memory is reclaimed when the frame closes.
     /// * none: nothing is stored, so nothing is removed.
     fn remove(&mut self, selection: &Selection) -> usize;
@@ -344,150 +340,6 @@ pub trait CacheHandle {
 
     /// This handle's counters so far.
     fn stats(&self) -> &WorkerStats;
-}
-
-/// The bookkeeping every handle shares: identity, record numbering, counters, the scheme's own
-/// part (`X`: LW's local octree), and the ledger it goes back to when the handle is dropped.
-#[derive(Debug)]
-pub(crate) struct HandleCore<'c, X: Local> {
-    pub worker: WorkerId,
-    pub frame: u64,
-    pub next_seq: u64,
-    pub stats: WorkerStats,
-    pub local: X,
-    ledger: &'c Ledger<X>,
-}
-
-impl<X: Local> Drop for HandleCore<'_, X> {
-    fn drop(&mut self) {
-        self.ledger.deposit(Deposit {
-            worker: self.worker,
-            stats: self.stats,
-            local: self.local.take(),
-        });
-    }
-}
-
-impl<'c, X: Local> HandleCore<'c, X> {
-    /// Registers a handle for `worker` in `ledger`'s open frame.
-    ///
-    /// # Panics
-    /// If `worker` already has a handle in that frame.
-    pub fn new(ledger: &'c Ledger<X>, worker: WorkerId, local: X) -> Self {
-        let frame = ledger.issue(worker);
-        Self {
-            worker,
-            frame,
-            next_seq: 0,
-            stats: WorkerStats::default(),
-            local,
-            ledger,
-        }
-    }
-
-    /// Validates and seals a record for `config`, counting it.
-    #[inline]
-    pub fn admit(
-        &mut self,
-        config: &CacheConfig,
-        mut record: Record,
-    ) -> Result<Record, InsertError> {
-        if let Err(e) = config.check(&record) {
-            self.stats.rejected += 1;
-            return Err(e);
-        }
-        let id = RecordId::new(self.worker, self.frame, self.next_seq);
-        self.next_seq += 1;
-        record.seal(id);
-        self.stats.inserts += 1;
-        Ok(record)
-    }
-
-    /// Counts an insert's outcome and steps.
-    #[inline]
-    pub fn inserted(&mut self, outcome: Inserted, steps: u32) -> Inserted {
-        match outcome {
-            Inserted::Stored(_) => self.stats.stored += 1,
-            Inserted::Discarded(_) => self.stats.discarded += 1,
-            Inserted::NotCached(_) => {}
-        }
-        self.stats.max_insert_steps = self.stats.max_insert_steps.max(steps);
-        outcome
-    }
-
-    /// Counts one traversal's work: a lookup's, or a `valid_records` call's (which is not a lookup:
-    /// `lookups` and `hits` are left alone).
-    #[inline]
-    pub fn traversed(&mut self, work: Work) {
-        let s = &mut self.stats;
-        s.max_lookup_nodes = s.max_lookup_nodes.max(work.nodes);
-        s.max_lookup_records = s.max_lookup_records.max(work.records);
-        s.lookup_nodes += u64::from(work.nodes);
-        s.lookup_records += u64::from(work.records);
-    }
-
-    /// A fresh accumulator for a query by this worker, or `None` for a query that cannot be answered.
-    #[inline]
-    pub fn begin_lookup(
-        &mut self,
-        config: &CacheConfig,
-        point: Vec3,
-        normal: Vec3,
-    ) -> Option<Accumulator> {
-        self.stats.lookups += 1;
-        ic::is_valid_query(point, normal)
-            .then(|| Accumulator::new(point, normal, config.accuracy(), Some(self.worker)))
-    }
-
-    /// Counts a lookup's outcome and its work.
-    #[inline]
-    pub fn end_lookup(&mut self, acc: &Accumulator, work: Work) -> Option<Interpolated> {
-        self.traversed(work);
-        let out = acc.finish();
-        if let Some(hit) = &out {
-            self.stats.hits += 1;
-            if hit.foreign > 0 {
-                self.stats.shared_hits += 1;
-            }
-        }
-        out
-    }
-}
-
-/// What one traversal of a cache did: the nodes it visited and the records it examined (read from
-/// those nodes' lists, valid or not).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub(crate) struct Work {
-    pub nodes: u32,
-    pub records: u32,
-}
-
-impl std::ops::AddAssign for Work {
-    fn add_assign(&mut self, other: Work) {
-        self.nodes += other.nodes;
-        self.records += other.records;
-    }
-}
-
-/// Collects the records a query would use, through any cache's walk (given the query's prefilter
-/// and a visitor for the records it admits); returns the walk's work (none for a query that
-/// cannot be answered).
-pub(crate) fn collect_valid(
-    config: &CacheConfig,
-    point: Vec3,
-    normal: Vec3,
-    out: &mut Vec<Record>,
-    walk: impl FnOnce(&ic::Prefilter, &mut dyn FnMut(&Record)) -> Work,
-) -> Work {
-    if !ic::is_valid_query(point, normal) {
-        return Work::default();
-    }
-    let pre = ic::Prefilter::new(point, normal, config.accuracy());
-    walk(&pre, &mut |r: &Record| {
-        if ic::valid_weight(r, point, normal, config.accuracy()).is_some() {
-            out.push(*r);
-        }
-    })
 }
 
 #[cfg(all(test, not(checker)))]
@@ -608,148 +460,5 @@ mod tests {
                 lookup_records: 1414,
             }
         );
-    }
-
-    /// A record at `x` on the line y = z = 1, facing +z, of radius 1, sealed as `worker`'s `seq`.
-    fn sealed_at(x: f32, worker: u32, seq: u64) -> Record {
-        Record::new(Vec3::new(x, 1.0, 1.0), Vec3::Z, Vec3::ONE, 1.0).sealed(RecordId::new(
-            WorkerId::new(worker),
-            0,
-            seq,
-        ))
-    }
-
-    /// The bookkeeping every scheme's handle delegates to, counted by hand: record numbering,
-    /// refusals, outcomes, step maxima, each traversal's work, hits and shared hits.
-    #[test]
-    fn a_handle_core_counts_what_its_worker_does() {
-        let config = CacheConfig::new(Vec3::ZERO, Vec3::splat(4.0), 0.5).unwrap();
-        let ledger = Ledger::<()>::new();
-        let me = WorkerId::new(2);
-        let mut core = HandleCore::new(&ledger, me, ());
-        let fresh = |x: f32| Record::new(Vec3::new(x, 1.0, 1.0), Vec3::Z, Vec3::ONE, 1.0);
-
-        // Admission numbers the worker's records 0, 1, 2 in this frame and refuses bad input.
-        let ids: Vec<RecordId> = (0..3)
-            .map(|k| core.admit(&config, fresh(1.0 + k as f32)).unwrap().id())
-            .collect();
-        let expected: Vec<RecordId> = (0..3).map(|k| RecordId::new(me, 0, k)).collect();
-        assert_eq!(ids, expected);
-        assert!(matches!(
-            core.admit(&config, fresh(9.0)),
-            Err(InsertError::OutOfBounds { .. })
-        ));
-        assert_eq!((core.stats.inserts, core.stats.rejected), (3, 1));
-
-        // Outcomes: two stored, one discarded, one not cached (counted nowhere); the most steps.
-        assert_eq!(
-            core.inserted(Inserted::Stored(ids[0]), 3),
-            Inserted::Stored(ids[0])
-        );
-        core.inserted(Inserted::Stored(ids[1]), 5);
-        core.inserted(Inserted::Discarded(ids[2]), 4);
-        core.inserted(Inserted::NotCached(ids[2]), 1);
-        let s = core.stats;
-        assert_eq!((s.stored, s.discarded, s.max_insert_steps), (2, 1, 5));
-
-        // Traversals: maxima per field (from different traversals) and sums.
-        core.traversed(Work {
-            nodes: 3,
-            records: 7,
-        });
-        core.traversed(Work {
-            nodes: 5,
-            records: 2,
-        });
-        let s = core.stats;
-        assert_eq!(
-            (
-                s.max_lookup_nodes,
-                s.max_lookup_records,
-                s.lookup_nodes,
-                s.lookup_records
-            ),
-            (5, 7, 8, 9)
-        );
-        assert_eq!(s.lookups, 0, "a traversal alone is not a lookup");
-
-        // Lookups: one that cannot be answered, a miss, a hit on the worker's own records, a hit
-        // that uses another worker's record.
-        let q = Vec3::new(1.1, 1.0, 1.0);
-        assert!(core.begin_lookup(&config, Vec3::NAN, Vec3::Z).is_none());
-        let miss = core.begin_lookup(&config, q, Vec3::Z).unwrap();
-        assert_eq!(miss.point(), q);
-        assert_eq!(core.end_lookup(&miss, Work::default()), None);
-        let mut own = core.begin_lookup(&config, q, Vec3::Z).unwrap();
-        assert!(own.add(&sealed_at(1.0, 2, 0)) && own.add(&sealed_at(1.2, 2, 1)));
-        let hit = core.end_lookup(&own, Work::default()).unwrap();
-        assert_eq!((hit.records, hit.foreign), (2, 0));
-        let mut shared = core.begin_lookup(&config, q, Vec3::Z).unwrap();
-        assert!(shared.add(&sealed_at(1.0, 2, 0)) && shared.add(&sealed_at(1.2, 5, 0)));
-        let hit = core.end_lookup(&shared, Work::default()).unwrap();
-        assert_eq!((hit.records, hit.foreign), (2, 1));
-        let s = core.stats;
-        assert_eq!((s.lookups, s.hits, s.shared_hits), (4, 2, 1));
-        // A second shared hit counts one more (not a doubling of the first).
-        core.end_lookup(&shared, Work::default());
-        core.end_lookup(&shared, Work::default());
-        assert_eq!(core.stats.shared_hits, 3);
-        // `end_lookup` counts its traversal too.
-        core.end_lookup(
-            &miss,
-            Work {
-                nodes: 1,
-                records: 1,
-            },
-        );
-        assert_eq!(core.stats.lookup_nodes, 9);
-    }
-
-    #[test]
-    fn collect_valid_keeps_the_valid_records_and_counts_every_one_it_is_shown() {
-        let config = CacheConfig::new(Vec3::ZERO, Vec3::splat(4.0), 0.5).unwrap();
-        let (q, mut out) = (Vec3::new(1.1, 1.0, 1.0), Vec::new());
-        // Valid, far (invalid), valid: three examined over two nodes, two kept in visit order.
-        let shown = [
-            sealed_at(1.0, 0, 0),
-            sealed_at(3.5, 0, 1),
-            sealed_at(1.2, 1, 0),
-        ];
-        let work = collect_valid(&config, q, Vec3::Z, &mut out, |pre, f| {
-            assert_eq!(pre.point(), q);
-            shown.iter().for_each(f);
-            Work {
-                nodes: 2,
-                records: 3,
-            }
-        });
-        assert_eq!(
-            work,
-            Work {
-                nodes: 2,
-                records: 3
-            }
-        );
-        assert_eq!(out, vec![shown[0], shown[2]]);
-        // A query that cannot be answered visits nothing.
-        let work = collect_valid(&config, Vec3::NAN, Vec3::Z, &mut out, |_, _| {
-            panic!("an unanswerable query must not be visited")
-        });
-        assert_eq!(work, Work::default());
-        assert_eq!(out.len(), 2);
-    }
-
-    #[test]
-    fn a_ledger_names_its_cache_in_debug_output() {
-        let (a, b) = (Ledger::<()>::new(), Ledger::<()>::new());
-        let (a, b) = (format!("{a:?}"), format!("{b:?}"));
-        let number = |s: &str| -> u64 {
-            s.strip_prefix("Ledger(cache #")
-                .and_then(|r| r.strip_suffix(')'))
-                .unwrap_or_else(|| panic!("unexpected Debug output {s:?}"))
-                .parse()
-                .unwrap()
-        };
-        assert_ne!(number(&a), number(&b), "each cache has its own number");
     }
 }

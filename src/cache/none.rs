@@ -3,9 +3,9 @@
 //! estimate, insert). Rendered with it, a frame is the reference the cached schemes are measured
 //! against.
 
-use super::frame::Ledger;
+use super::frame::{HandleCore, Ledger, Work};
 use super::{
-    CacheConfig, CacheHandle, CacheStats, FrameReport, HandleCore, Inserted, IrradianceCache, Work,
+    CacheConfig, CacheHandle, CacheStats, FrameReport, Inserted, IrradianceCache, Scheme,
     WorkerStats,
 };
 use crate::ic::{InsertError, Interpolated, Record, Selection, WorkerId};
@@ -43,8 +43,8 @@ pub struct NoCacheHandle<'c> {
 impl IrradianceCache for NoCache {
     type Handle<'c> = NoCacheHandle<'c>;
 
-    fn scheme(&self) -> &'static str {
-        "none"
+    fn scheme(&self) -> Scheme {
+        Scheme::None
     }
 
     fn config(&self) -> &CacheConfig {

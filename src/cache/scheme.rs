@@ -156,8 +156,8 @@ mod tests {
     struct Name;
 
     impl CacheJob for Name {
-        type Output = &'static str;
-        fn run<C: IrradianceCache>(self, cache: C) -> &'static str {
+        type Output = Scheme;
+        fn run<C: IrradianceCache>(self, cache: C) -> Scheme {
             cache.scheme()
         }
     }
@@ -166,7 +166,7 @@ mod tests {
     fn every_scheme_builds_the_cache_it_names() {
         let config = CacheConfig::new(Vec3::ZERO, Vec3::ONE, 0.25).unwrap();
         for scheme in Scheme::ALL {
-            assert_eq!(scheme.build(config, Name), scheme.name());
+            assert_eq!(scheme.build(config, Name), scheme);
             assert_eq!(Scheme::from_name(scheme.name()), Some(scheme));
         }
         assert_eq!(Scheme::from_name("wf-adopt"), None);

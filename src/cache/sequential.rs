@@ -4,17 +4,17 @@
 //! [`Octree`] is Listing 3's `IrradianceCache`: `insert` walks from the root, creating missing
 //! children, to the node whose cell fits the record's influence radius and appends the record to
 //! that node's list; a query visits every node whose loose cell holds the point (see
-//! [`super::octree`]). Nodes live in one arena (`Vec`), children are indices into it.
+//! [`crate::research::Geometry`]). Nodes live in one arena (`Vec`), children are indices into it.
 //!
 //! [`Sequential`] is the TRA scheme: the octree owned by one worker at a time. Its handle holds the
 //! octree's lock for the whole frame, so lookups and inserts pay nothing for it; a second worker
 //! asking for a handle waits until the first one is finished. TRA is meant to run on one thread.
 
-use super::frame::{Ledger, Local};
+use super::frame::{collect_valid, HandleCore, Ledger, Local, Work};
 use super::octree::{Cell, Octant};
 use super::{
-    collect_valid, CacheConfig, CacheHandle, CacheStats, FrameReport, HandleCore, Inserted,
-    IrradianceCache, Work, WorkerStats,
+    CacheConfig, CacheHandle, CacheStats, FrameReport, Inserted, IrradianceCache, Scheme,
+    WorkerStats,
 };
 use crate::ic::{InsertError, Interpolated, Key, Prefilter, Record, Selection, WorkerId};
 use crate::sync::{unpoison, Mutex, MutexGuard};
@@ -294,8 +294,8 @@ pub struct SeqHandle<'c> {
 impl IrradianceCache for Sequential {
     type Handle<'c> = SeqHandle<'c>;
 
-    fn scheme(&self) -> &'static str {
-        "tra"
+    fn scheme(&self) -> Scheme {
+        Scheme::Tra
     }
 
     fn config(&self) -> &CacheConfig {

@@ -6,7 +6,7 @@
 //!   `a R_i` ([`super::influence_radius`]), the region where it can be valid — meets a box. Give
 //!   it the swept bounds of an object that moved. It is a local test: it takes out the records
 //!   whose valid region the object entered or left, not those the object shadows or lights from
-//!   farther away, which no local test can find (`paper-notes.md`, removal).
+//!   farther away, which no local test can find (`docs/renderer.md`, dynamic scenes).
 //! * [`Selection::near`]: the same with every sphere grown by a margin, for an object whose light
 //!   and shadow reach farther than the records' own influence.
 //! * [`Selection::moving`]: for an object that moves a known step a frame, a margin that grows

@@ -6,7 +6,7 @@ use std::io::IsTerminal;
 use std::process::ExitCode;
 use wfic::cache::IrradianceCache;
 use wfic::cache::{CacheJob, Scheme};
-use wfic::workload::{run_frame, Frame, FrameResult, Room};
+use wfic::research::workload::{run_synthetic, Room, SyntheticFrame, SyntheticResult};
 
 #[derive(Parser)]
 #[command(
@@ -199,8 +199,8 @@ struct Frames<'a> {
 }
 
 impl CacheJob for Frames<'_> {
-    type Output = Vec<FrameResult>;
-    fn run<C: IrradianceCache>(self, cache: C) -> Vec<FrameResult> {
+    type Output = Vec<SyntheticResult>;
+    fn run<C: IrradianceCache>(self, cache: C) -> Vec<SyntheticResult> {
         frames(cache, self.room, self.threads, self.args)
     }
 }
@@ -210,7 +210,7 @@ fn frames<C: IrradianceCache>(
     room: Room,
     threads: u32,
     args: &DemoArgs,
-) -> Vec<FrameResult> {
+) -> Vec<SyntheticResult> {
     let total = args.points * args.frames;
     let bar = ProgressBar::new(total);
     if args.quiet || !std::io::stderr().is_terminal() {
@@ -221,18 +221,18 @@ fn frames<C: IrradianceCache>(
             .expect("static template")
             .progress_chars("=> "),
     );
-    bar.set_prefix(cache.scheme());
+    bar.set_prefix(cache.scheme().name());
     let mut out = Vec::new();
     for frame in 0..args.frames {
         let done = frame * args.points;
-        let spec = Frame {
+        let spec = SyntheticFrame {
             room,
             threads,
             points: args.points as usize,
             work_per_record: args.work,
             seed: 0x1234 + frame,
         };
-        out.push(run_frame(&mut cache, &spec, &|finished| {
+        out.push(run_synthetic(&mut cache, &spec, &|finished| {
             bar.set_position(done + finished as u64);
         }));
     }

@@ -171,7 +171,7 @@ pub fn render_frame_removing<C: IrradianceCache>(
 ) -> FrameResult {
     let start = Instant::now();
     let threads = threads.max(1);
-    let scheme = cache.scheme();
+    let scheme = cache.scheme().name();
     let integrator = PixelIntegrator::new(scene, camera, settings, cache.config().accuracy());
     let tiles = Tiles::new(settings);
     let bar = progress_bar(

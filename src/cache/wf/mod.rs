@@ -7,7 +7,7 @@
 //! query point.
 //!
 //! * **Insert** walks from the root towards the node that fits the record (the same placement as
-//!   every other cache, [`super::octree`]). When a child on the way is missing, the whole rest of
+//!   every other cache, [`crate::research::Geometry`]). When a child on the way is missing, the whole rest of
 //!   the path — the missing child, its descendants down to the target depth, and the record in the
 //!   last of them — is built privately and published with *one* compare-and-swap of the parent's
 //!   child pointer (Listing 6, lines 7–15). If another thread published that child first:
@@ -17,7 +17,7 @@
 //!     winner's child, where the record is stored. No sample is lost, as in Mitsuba 0.6's
 //!     lock-free octree.
 //! * **Lookup** reads masks, child pointers and published slots only: no read-modify-write, no
-//!   fence, no store (unless the [`ReadFence`] policy asks for the paper's avoided barrier).
+//!   fence, no store (unless the [`ReadFence`](crate::research::orderings::ReadFence) policy asks for the paper's avoided barrier).
 //! * **The mask** has two rules: no record is stored below a child whose bit is clear, and no bit
 //!   is set before its child is published. The publisher of a child sets its bit right after the
 //!   compare-and-swap, and any insert that walks into a child sets it first if it does not see it
@@ -71,13 +71,13 @@
 //! holds memory bounded by its live records and the tree over them.
 
 mod list;
-pub mod orderings;
+pub(crate) mod orderings;
 
-use super::frame::Ledger;
+use super::frame::{collect_valid, HandleCore, Ledger, Work};
 use super::octree::{Cell, Octant, MAX_DEPTH};
 use super::{
-    collect_valid, CacheConfig, CacheHandle, CacheStats, FrameReport, HandleCore, Inserted,
-    IrradianceCache, Work, WorkerStats,
+    CacheConfig, CacheHandle, CacheStats, FrameReport, Inserted, IrradianceCache, Scheme,
+    WorkerStats,
 };
 use crate::ic::{InsertError, Interpolated, Key, Record, Selection, WorkerId};
 use crate::sync::{fence, AtomicPtr, AtomicU8, Ordering, Tracked};
@@ -91,7 +91,7 @@ use std::ptr;
 /// The record list itself, for the loom models that exercise it alone.
 #[cfg(feature = "loom")]
 pub use list::{ListFull, RecordList};
-pub use orderings::{Minimal, MinimalControl, Orderings, ReadFence, SeqCstEverywhere};
+pub use orderings::{Minimal, Orderings};
 
 /// What an insert does when its compare-and-swap on a missing child loses the race.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
@@ -561,10 +561,10 @@ pub struct WfHandle<'c, O: Orderings> {
 impl<O: Orderings> IrradianceCache for WaitFree<O> {
     type Handle<'c> = WfHandle<'c, O>;
 
-    fn scheme(&self) -> &'static str {
+    fn scheme(&self) -> Scheme {
         match self.policy {
-            CasFailure::Adopt => "wf",
-            CasFailure::Discard => "wf-discard",
+            CasFailure::Adopt => Scheme::Wf,
+            CasFailure::Discard => Scheme::WfDiscard,
         }
     }
 

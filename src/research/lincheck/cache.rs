@@ -22,7 +22,7 @@
 //! lookups are held to that name. The set-consistency check follows the same rule
 //! ([`check_set_consistency`]).
 //!
-//! [`BruteForce::valid_records`]: crate::cache::BruteForce::valid_records
+//! [`BruteForce::valid_records`]: crate::research::BruteForce::valid_records
 
 use super::{History, Specification, ThreadLog};
 use crate::cache::{CacheConfig, CacheHandle, Inserted};
@@ -740,7 +740,7 @@ impl std::error::Error for SetViolation {}
 ///    among those returned (reads are monotonic per thread: nothing is forgotten).
 ///
 /// With removals, 2 and 4 exempt every record that a removal selecting it began before the
-/// lookup ended, and three more rules hold (WF's guarantee, `paper-notes.md`, removal):
+/// lookup ended, and three more rules hold (WF's guarantee, `docs/design.md`, removal):
 ///
 /// 5. a lookup returns no record that a removal selecting it took for certain: the removal
 ///    returned before the lookup began, and the record's insert returned before the removal began
@@ -768,136 +768,225 @@ pub fn check_set_consistency(
     history: &History<CacheOp, CacheRet>,
     config: &CacheConfig,
 ) -> Result<(), SetViolation> {
-    let ops = history.operations();
-    // Every insert that carries an id, by id; those that stored their record, for losses; the
-    // pending inserts whose id is unknown, by worker, in invocation order.
-    let mut named: HashMap<RecordId, usize> = HashMap::new();
-    let mut stored = Vec::new();
-    let mut unnamed: HashMap<WorkerId, Vec<usize>> = HashMap::new();
-    for (k, o) in ops.iter().enumerate() {
-        let CacheOp::Insert { id, .. } = o.op else {
-            continue;
-        };
-        if let Some(CacheRet::Inserted(outcome)) = &o.ret {
-            assert_eq!(
-                id.known(),
-                Some(outcome.id()),
-                "insert #{k} ({id}) returned {outcome:?} with another id"
-            );
+    let ix = SetIndex::new(history.operations(), config.accuracy());
+    check_removal_counts(ix.ops, &ix.removals, &ix.stored, |k| ix.visible(k), ix.a)?;
+    // Per thread, every id its lookups returned so far, with the latest lookup that returned it.
+    let mut seen: HashMap<usize, BTreeMap<RecordId, usize>> = HashMap::new();
+    for l in ix.lookups() {
+        // The recorder sorts the ids (and keeps duplicates); sort a copy anyway, so that a
+        // hand-built result in another order is judged the same.
+        let mut ids = l.ids.clone();
+        ids.sort_unstable();
+        ix.check_returned(&l, &ids)?;
+        let mine = seen.entry(l.op.thread).or_default();
+        if ic::is_valid_query(l.point, l.normal) {
+            ix.check_nothing_missed(&l, &ids, mine)?;
         }
-        match (id, &o.ret) {
-            (InsertId::Known(id), ret) => {
-                named.insert(id, k);
-                if matches!(ret, Some(CacheRet::Inserted(Inserted::Stored(_)))) {
-                    stored.push(k);
+        mine.extend(ids.iter().map(|&id| (id, l.index)));
+    }
+    Ok(())
+}
+
+/// One lookup of the history that returned, with what it returned.
+struct ReturnedLookup<'h> {
+    index: usize,
+    op: &'h super::Operation<CacheOp, CacheRet>,
+    point: Vec3,
+    normal: Vec3,
+    ids: &'h Vec<RecordId>,
+    torn: usize,
+    end: u64,
+}
+
+/// A history indexed for [`check_set_consistency`]: its inserts by id, the stored ones, the ids
+/// adopted by pending inserts, and its removals.
+struct SetIndex<'h> {
+    ops: &'h [super::Operation<CacheOp, CacheRet>],
+    /// Ward's accuracy of the cache.
+    a: f32,
+    /// Every insert that carries an id, by id.
+    named: HashMap<RecordId, usize>,
+    /// The inserts that stored their record, for losses.
+    stored: Vec<usize>,
+    /// Ids no insert carries, with the earliest end of a lookup that returned each (and that lookup).
+    orphans: HashMap<RecordId, (u64, usize)>,
+    /// Orphan ids matched to a pending insert of their worker.
+    adopted: HashMap<RecordId, usize>,
+    /// The removals: operation index, selection, and the frame it was judged at.
+    removals: Vec<(usize, Selection, u64)>,
+}
+
+impl<'h> SetIndex<'h> {
+    fn new(ops: &'h [super::Operation<CacheOp, CacheRet>], a: f32) -> Self {
+        let (named, stored, unnamed) = Self::index_inserts(ops);
+        let removals = ops
+            .iter()
+            .enumerate()
+            .filter_map(|(k, o)| match o.op {
+                CacheOp::Remove { selection, now } => Some((k, selection, now)),
+                _ => None,
+            })
+            .collect();
+        let mut ix = Self {
+            ops,
+            a,
+            named,
+            stored,
+            orphans: HashMap::new(),
+            adopted: HashMap::new(),
+            removals,
+        };
+        ix.adopt_orphans(&unnamed);
+        ix
+    }
+
+    /// Every insert that carries an id, by id; those that stored their record; the pending
+    /// inserts whose id is unknown, by worker, in invocation order.
+    #[allow(clippy::type_complexity)]
+    fn index_inserts(
+        ops: &[super::Operation<CacheOp, CacheRet>],
+    ) -> (
+        HashMap<RecordId, usize>,
+        Vec<usize>,
+        HashMap<WorkerId, Vec<usize>>,
+    ) {
+        let mut named: HashMap<RecordId, usize> = HashMap::new();
+        let mut stored = Vec::new();
+        let mut unnamed: HashMap<WorkerId, Vec<usize>> = HashMap::new();
+        for (k, o) in ops.iter().enumerate() {
+            let CacheOp::Insert { id, .. } = o.op else {
+                continue;
+            };
+            if let Some(CacheRet::Inserted(outcome)) = &o.ret {
+                assert_eq!(
+                    id.known(),
+                    Some(outcome.id()),
+                    "insert #{k} ({id}) returned {outcome:?} with another id"
+                );
+            }
+            match (id, &o.ret) {
+                (InsertId::Known(id), ret) => {
+                    named.insert(id, k);
+                    if matches!(ret, Some(CacheRet::Inserted(Inserted::Stored(_)))) {
+                        stored.push(k);
+                    }
+                }
+                (InsertId::Unknown(worker), None) => unnamed.entry(worker).or_default().push(k),
+                // Refused: it stored nothing.
+                (InsertId::Unknown(_), Some(_)) => {}
+            }
+        }
+        (named, stored, unnamed)
+    }
+
+    /// Ids no insert carries, with the earliest end of a lookup that returned each (and that
+    /// lookup), then matched to the pending inserts of their worker.
+    fn adopt_orphans(&mut self, unnamed: &HashMap<WorkerId, Vec<usize>>) {
+        let ops = self.ops;
+        for l in self.lookups() {
+            for &id in l.ids.iter().filter(|id| !self.named.contains_key(id)) {
+                let first = self.orphans.entry(id).or_insert((l.end, l.index));
+                *first = (*first).min((l.end, l.index));
+            }
+        }
+        let mut by_worker: HashMap<WorkerId, Vec<(u64, RecordId)>> = HashMap::new();
+        for (&id, &(end, _)) in &self.orphans {
+            by_worker.entry(id.worker()).or_default().push((end, id));
+        }
+        for (worker, mut ids) in by_worker {
+            ids.sort_unstable();
+            let pending = unnamed.get(&worker).map_or(&[][..], Vec::as_slice);
+            let mut next = 0;
+            for (end, id) in ids {
+                if let Some(&insert) = pending.get(next).filter(|&&k| ops[k].invoked < end) {
+                    self.adopted.insert(id, insert);
+                    next += 1;
                 }
             }
-            (InsertId::Unknown(worker), None) => unnamed.entry(worker).or_default().push(k),
-            // Refused: it stored nothing.
-            (InsertId::Unknown(_), Some(_)) => {}
         }
     }
-    // May a lookup see insert `k`'s record? When it was stored, or may still be (pending).
-    let visible = |k: usize| {
+
+    /// May a lookup see insert `k`'s record? When it was stored, or may still be (pending).
+    fn visible(&self, k: usize) -> bool {
         matches!(
-            ops[k].ret,
+            self.ops[k].ret,
             None | Some(CacheRet::Inserted(Inserted::Stored(_)))
         )
-    };
-    let lookups = || {
-        ops.iter()
+    }
+
+    /// The lookups that returned, in history order.
+    fn lookups(&self) -> impl Iterator<Item = ReturnedLookup<'h>> + 'h {
+        self.ops
+            .iter()
             .enumerate()
-            .filter_map(|(k, o)| match (&o.op, &o.ret, o.returned) {
+            .filter_map(|(index, op)| match (&op.op, &op.ret, op.returned) {
                 (
                     CacheOp::Lookup { point, normal },
                     Some(CacheRet::Found { ids, torn }),
                     Some(end),
-                ) => Some((k, o, *point, *normal, ids, *torn, end)),
+                ) => Some(ReturnedLookup {
+                    index,
+                    op,
+                    point: *point,
+                    normal: *normal,
+                    ids,
+                    torn: *torn,
+                    end,
+                }),
                 _ => None,
             })
-    };
-    // Ids no insert carries, with the earliest end of a lookup that returned each (and that
-    // lookup), then matched to the pending inserts of their worker.
-    let mut orphans: HashMap<RecordId, (u64, usize)> = HashMap::new();
-    for (lookup, _, _, _, ids, _, end) in lookups() {
-        for &id in ids.iter().filter(|id| !named.contains_key(id)) {
-            let first = orphans.entry(id).or_insert((end, lookup));
-            *first = (*first).min((end, lookup));
-        }
     }
-    let mut adopted: HashMap<RecordId, usize> = HashMap::new();
-    let mut by_worker: HashMap<WorkerId, Vec<(u64, RecordId)>> = HashMap::new();
-    for (&id, &(end, _)) in &orphans {
-        by_worker.entry(id.worker()).or_default().push((end, id));
-    }
-    for (worker, mut ids) in by_worker {
-        ids.sort_unstable();
-        let pending = unnamed.get(&worker).map_or(&[][..], Vec::as_slice);
-        let mut next = 0;
-        for (end, id) in ids {
-            if let Some(&insert) = pending.get(next).filter(|&&k| ops[k].invoked < end) {
-                adopted.insert(id, insert);
-                next += 1;
-            }
-        }
-    }
-    // The inserted record behind an id that passed the phantom check: its insert's, or the
-    // pending insert's that adopted it.
-    let record_of = |id: RecordId| {
-        let k = named.get(&id).or_else(|| adopted.get(&id));
+
+    /// The inserted record behind an id that passed the phantom check: its insert's, or the
+    /// pending insert's that adopted it.
+    fn record_of(&self, id: RecordId) -> &'h Record {
+        let ops = self.ops;
+        let k = self.named.get(&id).or_else(|| self.adopted.get(&id));
         match k.map(|&k| &ops[k].op) {
             Some(CacheOp::Insert { record, .. }) => record,
             _ => unreachable!("{id} passed the phantom check"),
         }
-    };
-    let a = config.accuracy();
-    // The removals, and whether one selecting `record` began before `end`.
-    let removals: Vec<(usize, Selection, u64)> = ops
-        .iter()
-        .enumerate()
-        .filter_map(|(k, o)| match o.op {
-            CacheOp::Remove { selection, now } => Some((k, selection, now)),
-            _ => None,
-        })
-        .collect();
-    let removed_before = |record: &Record, end: u64| {
-        removals
+    }
+
+    /// Whether a removal selecting `record` began before `end`.
+    fn removed_before(&self, record: &Record, end: u64) -> bool {
+        self.removals
             .iter()
-            .any(|&(k, sel, now)| ops[k].invoked < end && sel.selects(record, a, now))
-    };
-    check_removal_counts(ops, &removals, &stored, visible, a)?;
-    // Per thread, every id its lookups returned so far, with the latest lookup that returned it.
-    let mut seen: HashMap<usize, BTreeMap<RecordId, usize>> = HashMap::new();
-    for (lookup, o, point, normal, ids, torn, end) in lookups() {
-        if torn > 0 {
+            .any(|&(k, sel, now)| self.ops[k].invoked < end && sel.selects(record, self.a, now))
+    }
+
+    /// Rules 1 and 5 and the whole-record rules: what lookup `l` returned (`ids`, sorted) is
+    /// whole, returned once, genuine, not from the future and not resurrected.
+    fn check_returned(&self, l: &ReturnedLookup<'_>, ids: &[RecordId]) -> Result<(), SetViolation> {
+        let (lookup, ops) = (l.index, self.ops);
+        if l.torn > 0 {
             return Err(SetViolation::Torn {
                 lookup,
-                count: torn,
+                count: l.torn,
             });
         }
-        // The recorder sorts the ids (and keeps duplicates); sort a copy anyway, so that a
-        // hand-built result in another order is judged the same.
-        let mut ids = ids.clone();
-        ids.sort_unstable();
         if let Some(pair) = ids.windows(2).find(|pair| pair[0] == pair[1]) {
             return Err(SetViolation::Duplicate {
                 lookup,
                 id: pair[0],
             });
         }
-        for &id in &ids {
-            match named.get(&id) {
-                Some(&insert) if !visible(insert) => {
+        for &id in ids {
+            match self.named.get(&id) {
+                Some(&insert) if !self.visible(insert) => {
                     return Err(SetViolation::Phantom { lookup, id });
                 }
-                Some(&insert) if ops[insert].invoked > end => {
+                Some(&insert) if ops[insert].invoked > l.end => {
                     return Err(SetViolation::FromTheFuture { lookup, insert, id });
                 }
                 Some(&insert) => {
-                    let record = record_of(id);
-                    for &(k, sel, now) in &removals {
+                    let record = self.record_of(id);
+                    for &(k, sel, now) in &self.removals {
                         let r = &ops[k];
-                        if r.precedes(o) && ops[insert].precedes(r) && sel.selects(record, a, now) {
+                        if r.precedes(l.op)
+                            && ops[insert].precedes(r)
+                            && sel.selects(record, self.a, now)
+                        {
                             return Err(SetViolation::Resurrected {
                                 lookup,
                                 removal: k,
@@ -907,49 +996,58 @@ pub fn check_set_consistency(
                     }
                 }
                 // Adopted by a pending insert invoked before every lookup returning it ended.
-                None if adopted.contains_key(&id) => {}
+                None if self.adopted.contains_key(&id) => {}
                 None => {
                     return Err(SetViolation::Phantom {
-                        lookup: orphans[&id].1,
+                        lookup: self.orphans[&id].1,
                         id,
                     });
                 }
             }
         }
-        let mine = seen.entry(o.thread).or_default();
-        if ic::is_valid_query(point, normal) {
-            for &insert in &stored {
-                let CacheOp::Insert { record, id } = &ops[insert].op else {
-                    unreachable!("only inserts are indexed")
-                };
-                let id = id.known().expect("a stored insert carries its id");
-                if ops[insert].precedes(o)
-                    && ic::valid_weight(record, point, normal, a).is_some()
-                    && ids.binary_search(&id).is_err()
-                    && !removed_before(record, end)
-                {
-                    return Err(SetViolation::Lost { lookup, insert, id });
-                }
-            }
-            // Monotonic reads, except for a record a removal that began before this lookup ended
-            // selects: it may have vanished legitimately (as for `Lost` above).
-            for (&id, &earlier) in mine.iter() {
-                let record = record_of(id);
-                if ic::valid_weight(record, point, normal, a).is_some()
-                    && ids.binary_search(&id).is_err()
-                    && !removed_before(record, end)
-                {
-                    return Err(SetViolation::Forgotten {
-                        earlier,
-                        later: lookup,
-                        id,
-                    });
-                }
-            }
-        }
-        mine.extend(ids.iter().map(|&id| (id, lookup)));
+        Ok(())
     }
-    Ok(())
+
+    /// Rules 2 and 4: lookup `l` (a valid query, returning `ids`, sorted) misses no stored record
+    /// whose insert preceded it, and forgets none its thread saw earlier (`mine`), unless a
+    /// removal selecting the record began before it ended.
+    fn check_nothing_missed(
+        &self,
+        l: &ReturnedLookup<'_>,
+        ids: &[RecordId],
+        mine: &BTreeMap<RecordId, usize>,
+    ) -> Result<(), SetViolation> {
+        let (lookup, ops, a) = (l.index, self.ops, self.a);
+        for &insert in &self.stored {
+            let CacheOp::Insert { record, id } = &ops[insert].op else {
+                unreachable!("only inserts are indexed")
+            };
+            let id = id.known().expect("a stored insert carries its id");
+            if ops[insert].precedes(l.op)
+                && ic::valid_weight(record, l.point, l.normal, a).is_some()
+                && ids.binary_search(&id).is_err()
+                && !self.removed_before(record, l.end)
+            {
+                return Err(SetViolation::Lost { lookup, insert, id });
+            }
+        }
+        // Monotonic reads, except for a record a removal that began before this lookup ended
+        // selects: it may have vanished legitimately (as for `Lost` above).
+        for (&id, &earlier) in mine {
+            let record = self.record_of(id);
+            if ic::valid_weight(record, l.point, l.normal, a).is_some()
+                && ids.binary_search(&id).is_err()
+                && !self.removed_before(record, l.end)
+            {
+                return Err(SetViolation::Forgotten {
+                    earlier,
+                    later: lookup,
+                    id,
+                });
+            }
+        }
+        Ok(())
+    }
 }
 
 /// Rules 6 and 7 of [`check_set_consistency`]: the removals' counts against the records each could

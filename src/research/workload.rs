@@ -89,7 +89,7 @@ pub fn busy_work(iterations: u32, seed: u64) -> u64 {
 /// One synthetic frame's parameters.
 #[cfg(not(checker))]
 #[derive(Clone, Copy, Debug)]
-pub struct Frame {
+pub struct SyntheticFrame {
     /// The room.
     pub room: Room,
     /// Worker threads.
@@ -105,7 +105,7 @@ pub struct Frame {
 /// What one synthetic frame did.
 #[cfg(not(checker))]
 #[derive(Clone, Copy, Debug)]
-pub struct FrameResult {
+pub struct SyntheticResult {
     /// Wall-clock time of the frame, merge included.
     pub wall: Duration,
     /// The cache's report.
@@ -119,11 +119,11 @@ const CHUNK: usize = 256;
 /// Runs one frame of `frame` on `cache` with `frame.threads` workers ([`crate::cache::Frame::run`]);
 /// `progress` is called with the number of points finished so far (from worker threads).
 #[cfg(not(checker))]
-pub fn run_frame<C: IrradianceCache>(
+pub fn run_synthetic<C: IrradianceCache>(
     cache: &mut C,
-    frame: &Frame,
+    frame: &SyntheticFrame,
     progress: &(dyn Fn(usize) + Sync),
-) -> FrameResult {
+) -> SyntheticResult {
     let start = Instant::now();
     let next = AtomicUsize::new(0);
     let open = cache.frame();
@@ -154,7 +154,7 @@ pub fn run_frame<C: IrradianceCache>(
         std::hint::black_box(sink);
     });
     let report = open.close();
-    FrameResult {
+    SyntheticResult {
         wall: start.elapsed(),
         report,
     }
@@ -182,18 +182,18 @@ mod tests {
         let room = Room { size: 4.0 };
         let mut cache =
             WaitFree::<crate::cache::wf::Minimal>::new(room.config(0.3), CasFailure::Adopt);
-        let frame = Frame {
+        let frame = SyntheticFrame {
             room,
             threads: 2,
             points: 20_000,
             work_per_record: 10,
             seed: 9,
         };
-        let first = run_frame(&mut cache, &frame, &|_| {});
+        let first = run_synthetic(&mut cache, &frame, &|_| {});
         assert_eq!(first.report.workers.lookups, 20_000);
         assert!(first.report.workers.stored > 100);
         assert!(first.report.workers.hits > first.report.workers.stored);
-        let second = run_frame(&mut cache, &Frame { seed: 10, ..frame }, &|_| {});
+        let second = run_synthetic(&mut cache, &SyntheticFrame { seed: 10, ..frame }, &|_| {});
         assert!(second.report.workers.stored < first.report.workers.stored / 2);
     }
 }

@@ -2,7 +2,7 @@
 //! so the caches are tested against it (and the linearizability checker uses it as the
 //! sequential specification).
 
-use super::CacheConfig;
+use crate::cache::CacheConfig;
 use crate::ic::{self, Accumulator, InsertError, Interpolated, Record, WorkerId};
 use glam::Vec3;
 
