@@ -92,7 +92,7 @@ struct Agree<'a> {
 
 impl SchemeCheck for Agree<'_> {
     fn check<C: IrradianceCache>(&mut self, mut cache: C) {
-        let scheme = cache.scheme();
+        let scheme = cache.scheme().name();
         let frame = cache.frame();
         let mut writer = frame.handle_for(w(0));
         for r in self.records {

@@ -34,7 +34,7 @@ impl CacheJob for SameWork {
     type Output = (u64, u64);
 
     fn run<C: IrradianceCache>(self, mut cache: C) -> (u64, u64) {
-        let scheme = cache.scheme();
+        let scheme = cache.scheme().name();
         {
             let frame = cache.frame();
             let mut h = frame.handle();

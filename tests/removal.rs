@@ -68,7 +68,7 @@ struct RemovesDuringAFrame {
 
 impl SchemeCheck for RemovesDuringAFrame {
     fn check<C: IrradianceCache>(&mut self, mut cache: C) {
-        let scheme = cache.scheme();
+        let scheme = cache.scheme().name();
         let a = cache.config().accuracy();
         let frame = cache.frame();
         let mut h = frame.handle_for(w(0));
@@ -176,7 +176,7 @@ struct RemovesByAge;
 
 impl SchemeCheck for RemovesByAge {
     fn check<C: IrradianceCache>(&mut self, mut cache: C) {
-        let scheme = cache.scheme();
+        let scheme = cache.scheme().name();
         let all = records(200, 2);
         insert_frame(&mut cache, &all[..100]);
         insert_frame(&mut cache, &all[100..]);
@@ -230,7 +230,7 @@ struct OverlappingRemovals;
 
 impl SchemeCheck for OverlappingRemovals {
     fn check<C: IrradianceCache>(&mut self, mut cache: C) {
-        let scheme = cache.scheme();
+        let scheme = cache.scheme().name();
         let all = records(400, 3);
         insert_frame(&mut cache, &all);
         let before = cache.snapshot();
@@ -348,7 +348,7 @@ struct MovingScene;
 
 impl SchemeCheck for MovingScene {
     fn check<C: IrradianceCache>(&mut self, mut cache: C) {
-        let scheme = cache.scheme();
+        let scheme = cache.scheme().name();
         let mut rng = Rng::new(5);
         let at = |frame: u32| {
             let t = frame as f32 * 0.05;

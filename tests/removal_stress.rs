@@ -87,7 +87,7 @@ struct RemovalStress;
 
 impl SchemeCheck for RemovalStress {
     fn check<C: IrradianceCache>(&mut self, mut cache: C) {
-        let scheme = cache.scheme();
+        let scheme = cache.scheme().name();
         let shared = Shared {
             inserted: (0..THREADS).map(|_| AtomicU64::new(0)).collect(),
             gone: (0..INSERTS * u64::from(THREADS))

@@ -19,7 +19,7 @@ struct BadInput;
 
 impl SchemeCheck for BadInput {
     fn check<C: IrradianceCache>(&mut self, mut cache: C) {
-        let scheme = cache.scheme();
+        let scheme = cache.scheme().name();
         let frame = cache.frame();
         let mut h = frame.handle_for(w(0));
         h.insert(good()).unwrap();
@@ -129,7 +129,7 @@ fn big_record(i: u64) -> Record {
 
 impl SchemeCheck for OneBigNode {
     fn check<C: IrradianceCache>(&mut self, mut cache: C) {
-        let scheme = cache.scheme();
+        let scheme = cache.scheme().name();
         let frame = cache.frame();
         let mut h = frame.handle_for(w(0));
         for i in 0..BIG {
@@ -227,7 +227,7 @@ struct PanickingWorker;
 
 impl SchemeCheck for PanickingWorker {
     fn check<C: IrradianceCache>(&mut self, mut cache: C) {
-        let scheme = cache.scheme();
+        let scheme = cache.scheme().name();
         let frame = cache.frame();
         let panicked = thread::scope(|s| {
             let frame = &frame;

@@ -51,7 +51,7 @@ struct WorkerOutcome {
 
 impl SchemeCheck for Stress {
     fn check<C: IrradianceCache>(&mut self, mut cache: C) {
-        let scheme = cache.scheme();
+        let scheme = cache.scheme().name();
         let threads = self.threads;
         let per_frame = (scaled(INSERTS) / u64::from(threads) / FRAMES).max(1);
         let lookups_per_insert = LOOKUPS / INSERTS;

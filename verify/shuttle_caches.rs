@@ -61,7 +61,7 @@ fn genuine(r: &Record) -> bool {
 /// rest lookups at positions other workers insert at. Checks racing reads, then the final state,
 /// then every lookup's work against the tree the stored records make (`tree_shape`).
 fn workload<C: IrradianceCache + 'static>(cache: C, threads: u32, ops: u64, insert_every: u64) {
-    let scheme = cache.scheme();
+    let scheme = cache.scheme().name();
     let config = *cache.config();
     let cache = Arc::new(cache);
     let workers: Vec<_> = (0..threads)
@@ -215,7 +215,7 @@ fn removal_workload<C: IrradianceCache + 'static>(
     insert_every: u64,
     remove_every: u64,
 ) {
-    let scheme = cache.scheme();
+    let scheme = cache.scheme().name();
     let config = *cache.config();
     let a = config.accuracy();
     let cache = Arc::new(cache);

@@ -29,7 +29,7 @@ use glam::Vec3;
 use std::collections::HashMap;
 use wfic::cache::{CacheConfig, CacheHandle};
 use wfic::ic::{self, Record};
-use wfic::research::Cell;
+use wfic::cache::Cell;
 
 /// Nodes visited and records examined by one lookup (or allowed for one).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
