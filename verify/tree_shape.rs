@@ -27,9 +27,9 @@
 
 use glam::Vec3;
 use std::collections::HashMap;
+use wfic::cache::Cell;
 use wfic::cache::{CacheConfig, CacheHandle};
 use wfic::ic::{self, Record};
-use wfic::cache::Cell;
 
 /// Nodes visited and records examined by one lookup (or allowed for one).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
