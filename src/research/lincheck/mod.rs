@@ -55,7 +55,7 @@
 //! use glam::Vec3;
 //! use wfic::cache::{CacheConfig, IrradianceCache, Locked};
 //! use wfic::ic::{Record, WorkerId};
-//! use wfic::lincheck::{check, CacheSpec, Recorder, RecordingHandle};
+//! use wfic::research::lincheck::{check, CacheSpec, Recorder, RecordingHandle};
 //!
 //! # // Real threads: not under a model checker, whose primitives need its runtime.
 //! # #[cfg(not(any(feature = "loom", feature = "shuttle")))] {
@@ -255,7 +255,7 @@ impl<O: Clone, R: Clone> History<O, R> {
 /// Builds a history by hand, one event at a time, in real-time order.
 ///
 /// ```
-/// use wfic::lincheck::{check, HistoryBuilder, Register, RegisterOp::*, RegisterRet::*};
+/// use wfic::research::lincheck::{check, HistoryBuilder, Register, RegisterOp::*, RegisterRet::*};
 /// // The classic stale read: the write returned before the read began, yet the read missed it.
 /// let h = HistoryBuilder::new()
 ///     .call(0, Write(1), Done)
