@@ -1,5 +1,4 @@
-//! What a second inserting thread costs, taken apart (issue "Lookups at the memory floor",
-//! point 4): the same 8 192 fresh records inserted into a freshly pre-filled cache, split several
+//! What a second inserting thread costs, taken apart: the same 8 192 fresh records inserted into a freshly pre-filled cache, split several
 //! ways, with each worker's allocations, allocated bytes and minor page faults counted beside the
 //! time.
 //!

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Mutation testing with cargo-mutants over the caches (src/cache), the irradiance-cache maths
-# (src/ic) and the history checkers (src/lincheck).
+# (src/ic) and the history checkers (src/research/lincheck).
 #
 #   bash verify/mutants.sh [wf|cache|ic|lincheck|all]      (default: all)
 #   bash verify/mutants.sh wf-lookup|cache-lookup           (the files or functions the lean read
@@ -9,7 +9,7 @@
 #                                                            removal added or changed)
 #   bash verify/mutants.sh cache-removal|ic-removal|lincheck-removal
 #                                                           (the lines of src/cache/*.rs, src/ic or
-#                                                            src/lincheck that removal changed: the
+#                                                            src/research/lincheck that removal changed: the
 #                                                            diff from $removal_base, --in-diff)
 #   bash verify/mutants.sh summary SCOPE                    (rewrite SCOPE's summary.md)
 #
@@ -25,8 +25,8 @@
 # argued one line each, are in docs/verification.md ("Mutation testing").
 #
 # Time on the 2-core CI machine: wf about 40 min, ic about 15 min, lincheck under an hour, cache
-# about 45 min (a mutant costs a 2-30 s incremental build plus its suite; the cache scope builds
-# without the renderer, about 4 s a mutant for its first stage). CI does not run this.
+# about 45 min (a mutant costs a 2-30 s incremental build plus its suite; the core is its own
+# package, about 4 s a mutant for the cache scope's first stage). CI does not run this.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 root=$(pwd)
@@ -138,7 +138,7 @@ diff_of() {
     case $scope in
         cache-removal) git diff "$removal_base" -- 'src/cache/*.rs' > "$out/diff.patch" ;;
         ic-removal) git diff "$removal_base" -- src/ic > "$out/diff.patch" ;;
-        lincheck-removal) git diff "$removal_base" -- src/lincheck > "$out/diff.patch" ;;
+        lincheck-removal) git diff "$removal_base" -- src/research/lincheck > "$out/diff.patch" ;;
         *) return 0 ;;
     esac
     echo --in-diff "$out/diff.patch"
@@ -156,7 +156,7 @@ filter_of() {
         cache-lookup) echo 'src/cache/{octree,sequential}.rs' ;;
         cache-removal) echo 'src/cache/*.rs' ;;
         ic | ic-removal) echo 'src/ic/**' ;;
-        lincheck | lincheck-removal) echo 'src/lincheck/**' ;;
+        lincheck | lincheck-removal) echo 'src/research/lincheck/**' ;;
     esac
 }
 
@@ -189,10 +189,11 @@ run_scope() {
             stage wf-removal no -f 'src/cache/wf/**' --re "$wf_removal_re" -- "${real_thread_suites[@]}"
             ;;
         cache)
-            # Every stage builds without the renderer (`--no-default-features`): none of these
-            # suites drives it, and a mutant of src/cache then rebuilds the caches, the maths and
-            # the checkers only (about 3 s for the unit tests, against a minute or more with the
-            # renderer, the experiments and the plots). The schemes' own unit tests (frame
+            # Every stage builds the core package alone (cargo-mutants tests the package it
+            # mutates; the renderer and the experiments are other packages of the workspace), so
+            # a mutant of src/cache rebuilds the caches, the maths and the checkers only (about
+            # 3 s for the unit tests). `--no-default-features` is kept so that a default feature
+            # added to the core later does not slow the scope down. The schemes' own unit tests (frame
             # protocol, scheme list, octree geometry, the layer's plain types) run in under a
             # second: they go first. The loom models next, then the real-thread suites, and the
             # stress suite (a minute a mutant) last, for whatever is still alive.
@@ -229,15 +230,15 @@ run_scope() {
         ic | ic-removal)
             # The maths' unit tests also run under the checker features, where the crate is small.
             stage "$scope" yes -f 'src/ic/**' "${d[@]}" --features loom -- --lib
-            stage "$scope" no -f 'src/ic/**' "${d[@]}" -- --lib --test agreement --test robustness --test render --test removal
+            stage "$scope" no -f 'src/ic/**' "${d[@]}" -- --lib --test agreement --test robustness --test removal
             ;;
         lincheck | lincheck-removal)
-            stage "$scope" yes -f 'src/lincheck/**' "${d[@]}" --features shuttle -- --lib
+            stage "$scope" yes -f 'src/research/lincheck/**' "${d[@]}" --features shuttle -- --lib
             # The lib's checker tests ran in stage 1 (they are the same under shuttle): only the
             # real-thread suite is new here, and leaving --lib out saves a second crate build.
-            stage "$scope" no -f 'src/lincheck/**' "${d[@]}" -- --test lincheck --test lincheck_removal
+            stage "$scope" no -f 'src/research/lincheck/**' "${d[@]}" -- --test lincheck --test lincheck_removal
             # What only the loom build compiles (a full model list's refusal).
-            stage "$scope" no -f 'src/lincheck/**' "${d[@]}" --features loom -- --lib
+            stage "$scope" no -f 'src/research/lincheck/**' "${d[@]}" --features loom -- --lib
             ;;
         *)
             echo "unknown scope $scope (wf, cache, ic, lincheck or all)" >&2

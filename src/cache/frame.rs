@@ -48,11 +48,8 @@
 //!
 //! ```compile_fail,E0505
 //! use glam::Vec3;
-//! use wfic::cache::{CacheConfig, IrradianceCache, WaitFree, CasFailure, wf::Minimal};
-//! let mut cache = WaitFree::<Minimal>::new(
-//!     CacheConfig::new(Vec3::ZERO, Vec3::ONE, 0.3).unwrap(),
-//!     CasFailure::Adopt,
-//! );
+//! use wfic::cache::{CacheConfig, IrradianceCache, WaitFree};
+//! let mut cache = WaitFree::adopt(CacheConfig::new(Vec3::ZERO, Vec3::ONE, 0.3).unwrap());
 //! let frame = cache.frame();
 //! let handle = frame.handle();
 //! frame.close(); // error: `frame` is borrowed by `handle`
@@ -347,11 +344,11 @@ impl<C: IrradianceCache> Drop for Frame<'_, C> {
 ///
 /// ```
 /// use glam::Vec3;
-/// use wfic::cache::{run_frame, CacheConfig, CacheHandle, CasFailure, WaitFree, wf::Minimal};
+/// use wfic::cache::{run_frame, CacheConfig, CacheHandle, WaitFree};
 /// use wfic::ic::Record;
 ///
 /// let config = CacheConfig::new(Vec3::ZERO, Vec3::splat(10.0), 0.3).unwrap();
-/// let mut cache = WaitFree::<Minimal>::new(config, CasFailure::Adopt);
+/// let mut cache = WaitFree::adopt(config);
 /// let (found, report) = run_frame(&mut cache, 2, |handle, worker| {
 ///     let p = Vec3::new(2.0 + 4.0 * worker.index() as f32, 5.0, 5.0);
 ///     handle.insert(Record::new(p, Vec3::Z, Vec3::ONE, 1.0)).unwrap();
