@@ -16,11 +16,10 @@
 //!    like a segment) when the list first outgrows its first segment, and found through a pointer
 //!    at the end of the first segment. So a node stays small however long its list may grow, and a
 //!    first segment is 4 × (32 + 128) + 8 = 648 bytes: the keys of the many short lists lie close
-//!    together (with the 49-entry directory inline, 1 032-byte first segments spread them out and
-//!    cost WF lookups 5–8% against TRA's; `benches/lookup_pairs.rs`), and the block stays inside
-//!    glibc's per-thread cache of small blocks (at most 1 032 bytes; with `B = 8` a larger first
-//!    segment missed it and a WF insert creating a node cost 3.2 times more: 500 ns against 154 ns
-//!    in `insert/wf`).
+//!    together (an inline directory would spread them out: `benches/lookup_pairs.rs` measures
+//!    the lookups), and the block stays inside glibc's per-thread cache of small blocks (at most
+//!    1 032 bytes), which a larger first segment would miss on every node a WF insert creates
+//!    (`insert/wf` in `benches/cache_ops.rs`; `docs/tried-and-dropped.md` has the layouts tried).
 //!    Under `loom` the segments are shrunk to `2, 4, 8` slots so three inserts reach a segment
 //!    boundary; the logic is the same.
 //!

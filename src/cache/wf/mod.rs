@@ -676,8 +676,8 @@ mod tests {
     /// The leak tracker ([`crate::sync::Tracked`]) costs nothing outside loom: a node is its
     /// occupancy mask, its list (head and first segment pointer) and its eight child pointers, 88
     /// bytes on 64-bit targets, with what every visit reads (mask, head, first segment) in its
-    /// first 24. Not aligned to a cache line: the 128-byte aligned layout, through glibc's
-    /// `memalign`, spread nodes out and cost 10% more per lookup (`benches/lookup_pairs.rs`).
+    /// first 24. Not aligned to a cache line: an aligned layout, through glibc's `memalign`,
+    /// spreads nodes out (`docs/tried-and-dropped.md`).
     #[test]
     fn a_node_is_its_mask_its_list_and_its_children() {
         use std::mem::offset_of;
