@@ -4,13 +4,13 @@
 //! `src/main.rs` wires the subcommand to [`run_render`]; [`RenderError::exit_code`] says how to
 //! exit (2 for bad input, 1 for a failure while writing).
 
-use wfic_render::film::worker_colour;
-use wfic_render::{obj, render_with_scheme, scenes, Camera, Pool, RenderSettings, Scene};
-use wfic::cache::Scheme;
 use clap::builder::{PossibleValue, PossibleValuesParser, TypedValueParser};
 use glam::Vec3;
 use std::fmt;
 use std::path::{Path, PathBuf};
+use wfic::cache::Scheme;
+use wfic_render::film::worker_colour;
+use wfic_render::{obj, render_with_scheme, scenes, Camera, Pool, RenderSettings, Scene};
 
 /// `--scheme` parses from the cache layer's list: names, and descriptions for `--help`.
 pub fn scheme_parser() -> impl TypedValueParser<Value = Scheme> {
@@ -371,8 +371,8 @@ fn run_distributed(_: RenderArgs) -> Result<(), RenderError> {
 /// `wfic render --distributed`, on every rank of the job.
 #[cfg(feature = "mpi")]
 fn run_distributed(args: RenderArgs) -> Result<(), RenderError> {
+    use mpi::traits::Communicator;
     use wfic_render::distributed::{render_distributed_frames, Exchange};
-    use mpi::traits::{Communicator, CommunicatorCollectives};
     let Some((universe, threading)) = mpi::initialize_with_threading(mpi::Threading::Multiple)
     else {
         return Err(RenderError::Usage("MPI was initialised already".to_owned()));
@@ -393,62 +393,12 @@ fn run_distributed(args: RenderArgs) -> Result<(), RenderError> {
         eprintln!("error: rank {rank} of {size} panicked; aborting the MPI job");
         mpi::topology::SimpleCommunicator::world().abort(101);
     }));
-    let setup = || -> Result<_, RenderError> {
-        if args.scheme != Scheme::Wf {
-            return Err(RenderError::Usage(format!(
-                "--distributed renders with the wait-free cache on every rank: use --scheme wf, \
-                 not {}",
-                args.scheme
-            )));
-        }
-        if args.batch_records == 0 {
-            return Err(RenderError::Usage(
-                "--batch-records must be at least 1".to_owned(),
-            ));
-        }
-        let settings = settings_from(&args)?;
-        let scene = load_scene(&args)?;
-        let config = settings
-            .cache_config(&scene)
-            .map_err(|e| RenderError::Usage(e.to_string()))?;
-        Ok((settings, scene, config))
-    };
-    // Every rank checks its own arguments; the ranks then agree on whether all of them can go on,
-    // so a bad argument on one rank stops every rank with a message instead of a hang.
-    let ready = setup();
-    let ok = u8::from(ready.is_ok());
-    let mut oks = vec![0u8; size as usize];
-    world.all_gather_into(&ok, &mut oks[..]);
-    // A refusal is printed by every rank, which then waits for the others to have printed
-    // theirs: `mpirun` kills the job when the first rank exits with an error, and a message not
-    // written by then is lost.
-    let refuse = |message: String| {
-        eprintln!("error: {message}");
-        world.barrier();
-        RenderError::Reported
-    };
-    let (settings, scene, config) = match ready {
-        Err(e) => return Err(refuse(format!("rank {rank}: {e}"))),
-        Ok(_) if oks.contains(&0) => {
-            let bad: Vec<String> = (0..size)
-                .filter(|&r| oks[r as usize] == 0)
-                .map(|r| r.to_string())
-                .collect();
-            return Err(refuse(format!(
-                "rank {rank}: rank(s) {} refused their arguments (see their messages)",
-                bad.join(", ")
-            )));
-        }
-        Ok(ready) => ready,
-    };
+    let (settings, scene, config) = distributed_setup(&world, &args)?;
     let exchange = Exchange {
         batch_records: args.batch_records,
         batch_ms: args.batch_ms,
         share: !args.no_share,
     };
-    if args.frames == 0 {
-        return Err(refuse(format!("rank {rank}: --frames must be at least 1")));
-    }
     let cameras: Vec<Camera> = if args.frames == 1 {
         vec![scene.camera()]
     } else {
@@ -467,104 +417,178 @@ fn run_distributed(args: RenderArgs) -> Result<(), RenderError> {
         &exchange,
         fail,
     )
-    .map_err(|e| refuse(e.to_string()))?;
+    .map_err(|e| refuse(&world, e.to_string()))?;
     let Some(frames) = frames else {
         return Ok(());
     };
-    let io = |path: &Path, e: std::io::Error| RenderError::Io(format!("{}: {e}", path.display()));
-    let mut entries = Vec::new();
     for (i, (frame, camera)) in frames.iter().zip(&cameras).enumerate() {
-        let one = frames.len() == 1;
-        let numbered = |p: &Path| {
-            if one {
-                p.to_path_buf()
-            } else {
-                let ext = p
-                    .extension()
-                    .map_or(String::new(), |e| format!(".{}", e.to_string_lossy()));
-                with_suffix(&p.with_extension(""), &format!("-{i:03}{ext}"))
-            }
-        };
-        let out = numbered(&args.out);
-        let exposure = frame.image.auto_exposure();
-        frame
-            .image
-            .write_png(&out, exposure)
-            .map_err(|e| io(&out, e))?;
-        let pfm = numbered(
-            &args
-                .pfm
-                .clone()
-                .unwrap_or_else(|| args.out.with_extension("pfm")),
-        );
-        frame.image.write_pfm(&pfm).map_err(|e| io(&pfm, e))?;
-        let overlay = numbered(
-            &args
-                .records
-                .clone()
-                .unwrap_or_else(|| with_suffix(&args.out, "-records.png")),
-        );
-        let view = camera.view(settings.width, settings.height);
-        let points: Vec<_> = frame
-            .records
-            .iter()
-            .filter_map(|(rank, r)| view.project(r.position).map(|p| (p, worker_colour(*rank))))
-            .collect();
-        frame
-            .image
-            .write_overlay_png(&overlay, exposure, &points)
-            .map_err(|e| io(&overlay, e))?;
-        let computed: u64 = frame.ranks.iter().map(|r| r.records_computed).sum();
-        entries.push(serde_json::json!({
-            "ranks": frame.ranks,
-            "records_computed": computed,
-            "duplicates": frame.duplicates,
-            "seconds": frame.seconds,
-        }));
-        let sent: u64 = frame.ranks.iter().map(|r| r.bytes_sent).sum();
-        println!(
-            "{} distributed over {} ranks ({}): {:.3} s, {} records computed ({} duplicates), \
-             {} bytes exchanged; wrote {}, {}, {}",
-            scene.name(),
-            size,
-            frame
-                .ranks
-                .iter()
-                .map(|r| format!(
-                    "rank {}: {} threads, {} tiles, {} records",
-                    r.rank, r.threads, r.tiles, r.records_computed
-                ))
-                .collect::<Vec<_>>()
-                .join("; "),
-            frame.seconds,
-            computed,
-            frame.duplicates,
-            sent,
-            out.display(),
-            pfm.display(),
-            overlay.display(),
-        );
+        let numbering = (frames.len() > 1).then_some(i);
+        write_distributed_frame(&args, &scene, &settings, frame, camera, numbering, size)?;
     }
     if let Some(path) = &args.stats {
-        let mut json = serde_json::json!({
-            "scene": scene.name(),
-            "triangles": scene.triangle_count(),
-            "width": settings.width,
-            "height": settings.height,
-            "batch_records": exchange.batch_records,
-            "batch_ms": exchange.batch_ms,
-            "share": exchange.share,
-        });
-        let fields = json.as_object_mut().expect("an object");
-        if entries.len() == 1 {
-            if let Some(serde_json::Value::Object(entry)) = entries.pop() {
-                fields.extend(entry);
-            }
-        } else {
-            fields.insert("frames".to_owned(), serde_json::Value::Array(entries));
-        }
-        let text = serde_json::to_string_pretty(&json).expect("statistics serialise") + "\n";
-        std::fs::write(path, text).map_err(|e| io(path, e))?;
+        let stats = wfic_render::stats::DistributedStats {
+            scene: scene.name().to_owned(),
+            triangles: scene.triangle_count(),
+            width: settings.width,
+            height: settings.height,
+            batch_records: exchange.batch_records,
+            batch_ms: exchange.batch_ms,
+            share: exchange.share,
+            frames: wfic_render::stats::DistributedFrames::new(
+                frames.into_iter().map(|f| f.stats).collect(),
+            ),
+        };
+        std::fs::write(path, stats.to_json())
+            .map_err(|e| RenderError::Io(format!("{}: {e}", path.display())))?;
     }
+    Ok(())
+}
+
+/// A refusal, printed by every rank of the job, which then waits for the others to have printed
+/// theirs: `mpirun` kills the job when the first rank exits with an error, and a message not
+/// written by then is lost.
+#[cfg(feature = "mpi")]
+fn refuse(world: &mpi::topology::SimpleCommunicator, message: String) -> RenderError {
+    use mpi::collective::CommunicatorCollectives;
+    eprintln!("error: {message}");
+    world.barrier();
+    RenderError::Reported
+}
+
+/// Every rank checks its own arguments and loads the scene; the ranks then agree on whether all
+/// of them can go on, so a bad argument on one rank stops every rank with a message instead of
+/// a hang.
+#[cfg(feature = "mpi")]
+fn distributed_setup(
+    world: &mpi::topology::SimpleCommunicator,
+    args: &RenderArgs,
+) -> Result<(RenderSettings, Scene, wfic::cache::CacheConfig), RenderError> {
+    use mpi::traits::{Communicator, CommunicatorCollectives};
+    let (rank, size) = (world.rank(), world.size());
+    let setup = || -> Result<_, RenderError> {
+        if args.scheme != Scheme::Wf {
+            return Err(RenderError::Usage(format!(
+                "--distributed renders with the wait-free cache on every rank: use --scheme wf, \
+                 not {}",
+                args.scheme
+            )));
+        }
+        if args.batch_records == 0 {
+            return Err(RenderError::Usage(
+                "--batch-records must be at least 1".to_owned(),
+            ));
+        }
+        let settings = settings_from(args)?;
+        let scene = load_scene(args)?;
+        let config = settings
+            .cache_config(&scene)
+            .map_err(|e| RenderError::Usage(e.to_string()))?;
+        Ok((settings, scene, config))
+    };
+    let ready = setup();
+    let ok = u8::from(ready.is_ok());
+    let mut oks = vec![0u8; size as usize];
+    world.all_gather_into(&ok, &mut oks[..]);
+    let ready = match ready {
+        Err(e) => return Err(refuse(world, format!("rank {rank}: {e}"))),
+        Ok(_) if oks.contains(&0) => {
+            let bad: Vec<String> = (0..size)
+                .filter(|&r| oks[r as usize] == 0)
+                .map(|r| r.to_string())
+                .collect();
+            return Err(refuse(
+                world,
+                format!(
+                    "rank {rank}: rank(s) {} refused their arguments (see their messages)",
+                    bad.join(", ")
+                ),
+            ));
+        }
+        Ok(ready) => ready,
+    };
+    if args.frames == 0 {
+        return Err(refuse(
+            world,
+            format!("rank {rank}: --frames must be at least 1"),
+        ));
+    }
+    Ok(ready)
+}
+
+/// Writes frame `frame` of a distributed render (rank 0): its PNG, PFM and record overlay, their
+/// names numbered `-NNN` when `numbering` is `Some(NNN)`; prints a line about it.
+#[cfg(feature = "mpi")]
+fn write_distributed_frame(
+    args: &RenderArgs,
+    scene: &Scene,
+    settings: &RenderSettings,
+    frame: &wfic_render::distributed::DistributedFrame,
+    camera: &Camera,
+    numbering: Option<usize>,
+    size: i32,
+) -> Result<(), RenderError> {
+    let io = |path: &Path, e: std::io::Error| RenderError::Io(format!("{}: {e}", path.display()));
+    let numbered = |p: &Path| match numbering {
+        None => p.to_path_buf(),
+        Some(i) => {
+            let ext = p
+                .extension()
+                .map_or(String::new(), |e| format!(".{}", e.to_string_lossy()));
+            with_suffix(&p.with_extension(""), &format!("-{i:03}{ext}"))
+        }
+    };
+    let out = numbered(&args.out);
+    let exposure = frame.image.auto_exposure();
+    frame
+        .image
+        .write_png(&out, exposure)
+        .map_err(|e| io(&out, e))?;
+    let pfm = numbered(
+        &args
+            .pfm
+            .clone()
+            .unwrap_or_else(|| args.out.with_extension("pfm")),
+    );
+    frame.image.write_pfm(&pfm).map_err(|e| io(&pfm, e))?;
+    let overlay = numbered(
+        &args
+            .records
+            .clone()
+            .unwrap_or_else(|| with_suffix(&args.out, "-records.png")),
+    );
+    let view = camera.view(settings.width, settings.height);
+    let points: Vec<_> = frame
+        .records
+        .iter()
+        .filter_map(|(rank, r)| view.project(r.position).map(|p| (p, worker_colour(*rank))))
+        .collect();
+    frame
+        .image
+        .write_overlay_png(&overlay, exposure, &points)
+        .map_err(|e| io(&overlay, e))?;
+    let stats = &frame.stats;
+    let sent: u64 = stats.ranks.iter().map(|r| r.bytes_sent).sum();
+    println!(
+        "{} distributed over {} ranks ({}): {:.3} s, {} records computed ({} duplicates), \
+         {} bytes exchanged; wrote {}, {}, {}",
+        scene.name(),
+        size,
+        stats
+            .ranks
+            .iter()
+            .map(|r| format!(
+                "rank {}: {} threads, {} tiles, {} records",
+                r.rank, r.threads, r.tiles, r.records_computed
+            ))
+            .collect::<Vec<_>>()
+            .join("; "),
+        stats.seconds,
+        stats.records_computed,
+        stats.duplicates,
+        sent,
+        out.display(),
+        pfm.display(),
+        overlay.display(),
+    );
     Ok(())
 }

@@ -241,8 +241,8 @@ fn a_warm_cache_serves_the_next_frame() {
 
 #[test]
 fn flat_and_bvh_traversals_find_the_same_hits() {
-    use wfic_render::flat::Traversal;
     use wfic::rng::Rng;
+    use wfic_render::flat::Traversal;
     // The Cornell box is small enough to be traversed flat; the same scene through its BVH must
     // see the same surfaces. Rays from random points inside the box in random directions, and
     // shadow queries cut short at a random fraction of the way. Hits nearer than 1e-3 are left
@@ -585,8 +585,7 @@ fn the_cli_writes_every_output_and_refuses_bad_input() {
 /// own noise at these rays per estimate is above the bar, both are measured against `none` at 4x
 /// the rays, and the scheme passes if its error there is within 1.25 times `none`'s: the cache
 /// no noisier than brute force at the same rays. That is the office, where the desk under the lamp
-/// sees the shade's lit inside, a small bright patch of its hemisphere (paper-notes.md, "Accuracy
-/// on the real scenes"). Release only: `cargo test --release --test render -- --ignored`.
+/// sees the shade's lit inside, a small bright patch of its hemisphere. Release only: `cargo test --release --test render -- --ignored`.
 #[test]
 #[ignore = "slow in debug builds; run with --release -- --ignored"]
 fn every_scene_and_scheme_is_within_five_percent_of_the_reference() {

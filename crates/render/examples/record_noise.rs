@@ -1,5 +1,5 @@
 //! How noisy one irradiance record is, and what it costs: the figures behind the renderer's
-//! sampling choices (`paper-notes.md`, "Radiance side by side").
+//! sampling choices (`docs/renderer.md`).
 //!
 //! At `P` points the camera sees (a jittered grid over the image, emitters skipped), `K`
 //! independent hemisphere estimates each; prints the mean over the points of the estimates'
@@ -15,10 +15,10 @@
 #[cfg(not(checker))]
 mod app {
     use std::time::Instant;
+    use wfic::rng::Rng;
     use wfic_render::integrator::{facing, sample_irradiance, RayCounts, Strata};
     use wfic_render::scene::luminance;
     use wfic_render::scenes;
-    use wfic::rng::Rng;
 
     pub fn main() {
         let args: Vec<String> = std::env::args().collect();

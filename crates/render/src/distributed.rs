@@ -27,19 +27,22 @@
 
 use super::film::Image;
 use super::integrator::{PixelIntegrator, SampleCounters};
+use super::stats::DistributedFrameStats;
+pub use super::stats::RankStats;
+use super::work::{self, shade, Blocks, Queue, Tiles, WorkSource};
 use super::{Camera, RenderSettings, Scene};
-use wfic::cache::wf::Minimal;
-use wfic::cache::{CacheConfig, CacheHandle, CasFailure, Inserted, IrradianceCache, WaitFree};
-use wfic::ic::{self, InsertError, Interpolated, Record, Selection, WorkerId};
-use wfic::sync::{AtomicBool, AtomicUsize, Mutex, Ordering};
 use glam::Vec3;
 use mpi::datatype::PartitionMut;
 use mpi::topology::SimpleCommunicator;
 use mpi::traits::*;
 use mpi::Count;
-use std::collections::VecDeque;
 use std::fmt;
+use std::sync::mpsc;
 use std::time::{Duration, Instant};
+use wfic::cache::wf::Minimal;
+use wfic::cache::{CacheConfig, CacheHandle, CasFailure, Inserted, IrradianceCache, WaitFree};
+use wfic::ic::{self, InsertError, Interpolated, Record, Selection, WorkerId};
+use wfic::sync::Mutex;
 
 /// How records cross between ranks.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -223,60 +226,16 @@ impl TilePlan {
     }
 }
 
-/// What one rank did in a distributed frame.
-#[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
-pub struct RankStats {
-    /// The rank.
-    pub rank: u32,
-    /// Its worker threads.
-    pub threads: usize,
-    /// Tiles it rendered.
-    pub tiles: usize,
-    /// Irradiance estimates it computed (hemisphere samplings).
-    pub ic_samples: u64,
-    /// Records it computed and stored in its own cache.
-    pub records_computed: u64,
-    /// Records it sent (each to every other rank).
-    pub records_sent: u64,
-    /// Records it received from the other ranks.
-    pub records_received: u64,
-    /// Received records its cache stored.
-    pub records_inserted: u64,
-    /// Bytes it sent (its records' payloads, once per other rank) and received.
-    pub bytes_sent: u64,
-    /// Bytes received.
-    pub bytes_received: u64,
-    /// Exchange rounds.
-    pub rounds: u64,
-    /// Seconds its MPI thread spent in the rounds' two collectives (the state's allgather and
-    /// the records' allgatherv), waiting for the slowest rank included.
-    pub collective_seconds: f64,
-    /// Seconds its MPI thread spent inserting the others' records into its cache.
-    pub insert_seconds: f64,
-    /// Digest of the records it sent, in order ([`WireRecord::digest`]).
-    pub sent_digest: u64,
-    /// Per other rank (by rank; its own entry 0): the digest of the records it received from
-    /// that rank, in order.
-    pub received_digests: Vec<u64>,
-    /// Records in its cache at the end.
-    pub cache_records: u64,
-    /// Seconds from the start of the frame to the end of its last round.
-    pub seconds: f64,
-}
-
 /// A distributed frame as rank 0 sees it.
 #[derive(Clone, Debug)]
 pub struct DistributedFrame {
     /// The assembled image.
     pub image: Image,
-    /// Every rank's statistics, by rank.
-    pub ranks: Vec<RankStats>,
     /// Every rank's computed records (positions and normals as computed), with their rank.
     pub records: Vec<(u32, Record)>,
-    /// Records computed where a record of another rank is also valid.
-    pub duplicates: u64,
-    /// Wall-clock seconds of the frame on rank 0 (agreement check to assembled image).
-    pub seconds: f64,
+    /// Its statistics: every rank's, the duplicates and the seconds, as the statistics file
+    /// holds them.
+    pub stats: DistributedFrameStats,
 }
 
 /// Why a distributed frame did not happen.
@@ -316,11 +275,45 @@ impl fmt::Display for DistributedError {
 
 impl std::error::Error for DistributedError {}
 
+/// What a rank's workers tell its main thread, which waits on them for the next round instead of
+/// polling.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Event {
+    /// A worker took a tile: the queue is shorter.
+    Took,
+    /// The outbox holds a batch.
+    Batch,
+    /// A worker found the queue closed and empty; every record it stored is in the outbox.
+    Finished,
+}
+
+/// The rank's tile queue as a worker sees it: the [`Queue`] its main thread feeds, each take
+/// (and the final `None`) also reported to the main thread.
+struct Fed<'a> {
+    queue: &'a Queue,
+    events: mpsc::Sender<Event>,
+}
+
+impl WorkSource for Fed<'_> {
+    fn next_item(&self) -> Option<usize> {
+        let tile = self.queue.next_item();
+        // A send fails only once the main thread has stopped listening (it is unwinding).
+        let _ = self.events.send(match tile {
+            Some(_) => Event::Took,
+            None => Event::Finished,
+        });
+        tile
+    }
+}
+
 /// A worker's handle that copies every record it stores into the rank's outbox (sent to the
-/// other ranks when the exchange shares, and kept for the duplicate count either way).
+/// other ranks when the exchange shares, and kept for the duplicate count either way), telling
+/// the main thread when the outbox holds a batch.
 struct Sending<'h, H> {
     inner: &'h mut H,
     outbox: &'h Mutex<Vec<Record>>,
+    batch: usize,
+    events: mpsc::Sender<Event>,
 }
 
 impl<H: CacheHandle> CacheHandle for Sending<'_, H> {
@@ -335,7 +328,15 @@ impl<H: CacheHandle> CacheHandle for Sending<'_, H> {
     fn insert(&mut self, record: Record) -> Result<Inserted, InsertError> {
         let outcome = self.inner.insert(record)?;
         if matches!(outcome, Inserted::Stored(_)) {
-            wfic::sync::unpoison(self.outbox.lock()).push(record);
+            let pending = {
+                let mut outbox = wfic::sync::unpoison(self.outbox.lock());
+                outbox.push(record);
+                outbox.len()
+            };
+            if pending == self.batch {
+                // As in `Fed`: only fails while the main thread unwinds.
+                let _ = self.events.send(Event::Batch);
+            }
         }
         Ok(outcome)
     }
@@ -351,17 +352,6 @@ impl<H: CacheHandle> CacheHandle for Sending<'_, H> {
     fn stats(&self) -> &wfic::cache::WorkerStats {
         self.inner.stats()
     }
-}
-
-/// The state a rank's workers and its main thread share during the frame.
-struct Shared {
-    queue: Mutex<VecDeque<usize>>,
-    /// No more tiles will come: every tile has been given out.
-    exhausted: AtomicBool,
-    /// Workers that have left the tile loop.
-    finished: AtomicUsize,
-    outbox: Mutex<Vec<Record>>,
-    tiles_done: AtomicUsize,
 }
 
 /// Renders one frame over the ranks of `world` (every rank calls this with the same scene,
@@ -398,10 +388,10 @@ pub fn render_distributed(
 }
 
 /// Renders one frame per camera, in order, over the ranks of `world`, each rank keeping its
-/// cache from frame to frame (the animation of the paper's §4.2, shared between processes): a
-/// frame's records, and the records the other ranks sent during it, serve every later frame.
-/// Rank 0 gets the frames; the others get `None`. Arguments and errors as
-/// [`render_distributed`]; the fingerprint covers every camera.
+/// cache from frame to frame (the paper's animations, shared between processes): a frame's
+/// records, and the records the other ranks sent during it, serve every later frame. Rank 0 gets
+/// the frames; the others get `None`. Arguments and errors as [`render_distributed`]; the
+/// fingerprint covers every camera.
 ///
 /// # Errors
 /// [`DistributedError::Mismatch`] on every rank when the ranks' scenes, cameras or settings
@@ -418,13 +408,44 @@ pub fn render_distributed_frames(
     fail: Option<(u32, bool)>,
 ) -> Result<Option<Vec<DistributedFrame>>, DistributedError> {
     let rank = world.rank() as u32;
-    let size = world.size() as usize;
-    let threads = threads.max(1);
     let Some(first) = cameras.first() else {
         return Ok((rank == 0).then(Vec::new));
     };
+    agree(world, scene, first, cameras, settings, exchange)?;
+    let job = Job {
+        world,
+        rank,
+        size: world.size() as usize,
+        threads: threads.max(1),
+        scene,
+        settings,
+        config,
+        exchange,
+        fail,
+    };
+    let mut cache = WaitFree::<Minimal>::new(config, CasFailure::Adopt);
+    let mut frames = Vec::with_capacity(cameras.len());
+    for camera in cameras {
+        let start = Instant::now();
+        let mine = job.render_frame(&mut cache, camera, start);
+        if let Some(frame) = job.assemble(mine, start) {
+            frames.push(frame);
+        }
+    }
+    Ok((rank == 0).then_some(frames))
+}
 
-    // Agreement: every rank gathers every fingerprint, so every rank reaches the same verdict.
+/// Agreement: every rank gathers every rank's fingerprint of the scene, the settings and the
+/// cameras, so every rank reaches the same verdict.
+fn agree(
+    world: &SimpleCommunicator,
+    scene: &Scene,
+    first: &Camera,
+    cameras: &[Camera],
+    settings: &RenderSettings,
+    exchange: &Exchange,
+) -> Result<(), DistributedError> {
+    let (rank, size) = (world.rank() as u32, world.size() as usize);
     let (mut line, print) = fingerprint(scene, first, settings, exchange);
     let mut h = Fnv::new();
     h.write(print);
@@ -443,217 +464,131 @@ pub fn render_distributed_frames(
     let differing: Vec<u32> = (0..size as u32)
         .filter(|&r| prints[r as usize] != prints[0])
         .collect();
-    if !differing.is_empty() {
-        return Err(DistributedError::Mismatch {
+    if differing.is_empty() {
+        Ok(())
+    } else {
+        Err(DistributedError::Mismatch {
             rank,
             mine: line,
             differing,
-        });
+        })
     }
+}
 
-    let mut cache = WaitFree::<Minimal>::new(config, CasFailure::Adopt);
-    let mut frames = Vec::with_capacity(cameras.len());
-    for camera in cameras {
-        let start = Instant::now();
-        let integrator = PixelIntegrator::new(scene, camera, settings, config.accuracy());
-        let tiles = super::parallel::Tiles::new(settings);
-        let mut plan = TilePlan::new(tiles.count);
-        let shared = Shared {
-            queue: Mutex::new(VecDeque::new()),
-            exhausted: AtomicBool::new(false),
-            finished: AtomicUsize::new(0),
-            outbox: Mutex::new(Vec::new()),
-            tiles_done: AtomicUsize::new(0),
-        };
-        let mut stats = RankStats {
-            rank,
-            threads,
-            received_digests: vec![Fnv::new().finish(); size],
-            ..RankStats::default()
-        };
-        let mut sent_digest = Fnv::new();
-        let mut received_digest: Vec<Fnv> = (0..size).map(|_| Fnv::new()).collect();
-        let mut computed: Vec<Record> = Vec::new();
+/// What every frame of a distributed render shares on one rank.
+struct Job<'a> {
+    world: &'a SimpleCommunicator,
+    rank: u32,
+    size: usize,
+    /// This rank's worker threads (at least 1).
+    threads: usize,
+    scene: &'a Scene,
+    settings: &'a RenderSettings,
+    config: CacheConfig,
+    exchange: &'a Exchange,
+    fail: Option<(u32, bool)>,
+}
 
+/// What one rank rendered of a frame.
+struct RankFrame {
+    /// Its tiles' pixels.
+    tiles: Vec<(usize, Vec<Vec3>)>,
+    /// The records its workers computed.
+    computed: Vec<Record>,
+    stats: RankStats,
+}
+
+impl Job<'_> {
+    /// Renders this rank's share of the frame seen by `camera` with `cache`: the workers shade
+    /// the tiles the rounds feed them while this (MPI's) thread runs the rounds.
+    fn render_frame(
+        &self,
+        cache: &mut WaitFree<Minimal>,
+        camera: &Camera,
+        start: Instant,
+    ) -> RankFrame {
+        let integrator =
+            PixelIntegrator::new(self.scene, camera, self.settings, self.config.accuracy());
+        let tiles = Tiles::new(self.settings);
+        let queue = Queue::new();
+        let outbox = Mutex::new(Vec::new());
+        let (events, heard) = mpsc::channel();
+        let mut rounds = Rounds::new(self, TilePlan::new(tiles.count()), &queue, &outbox, heard);
+        // What the workers need of the job (the communicator stays on this thread).
+        let (threads, rank, fail) = (self.threads, self.rank, self.fail);
+        let batch = self.exchange.batch_records.max(1);
         let frame = cache.frame();
         let outputs = wfic::sync::thread::scope(|s| {
             let render = s.spawn(|| {
+                // Moved in: the channel disconnects once every worker has returned.
+                let events = events;
                 frame.run(threads, |handle, _| {
                     let mut handle = Sending {
                         inner: handle,
-                        outbox: &shared.outbox,
+                        outbox: &outbox,
+                        batch,
+                        events: events.clone(),
                     };
-                    let mut counters = SampleCounters::default();
-                    let mut out: Vec<(usize, Vec<Vec3>)> = Vec::new();
-                    loop {
-                        let tile = wfic::sync::unpoison(shared.queue.lock()).pop_front();
-                        let Some(tile) = tile else {
-                            // Acquire: pairs with the main thread's Release store, which it makes
-                            // after pushing the last tiles; a worker that sees `exhausted` and then
-                            // an empty queue has seen every tile its rank will get.
-                            if shared.exhausted.load(Ordering::Acquire)
-                                && wfic::sync::unpoison(shared.queue.lock()).is_empty()
-                            {
-                                break;
-                            }
-                            std::thread::sleep(Duration::from_micros(200));
-                            continue;
-                        };
-                        let (x0, y0, x1, y1) = tiles.rect(tile);
-                        let mut pixels = Vec::with_capacity(((x1 - x0) * (y1 - y0)) as usize);
-                        for y in y0..y1 {
-                            for x in x0..x1 {
-                                pixels.push(integrator.pixel(x, y, &mut handle, &mut counters));
-                            }
-                        }
-                        out.push((tile, pixels));
-                        // Relaxed: a count the main thread only reports; nothing is published
-                        // through it.
-                        shared.tiles_done.fetch_add(1, Ordering::Relaxed);
-                        if fail == Some((rank, false)) {
-                            panic!("rank {rank}: the failure asked for by --fail-rank");
-                        }
-                        if fail == Some((rank, true)) {
-                            eprintln!("rank {rank}: exiting as asked by --fail-rank");
-                            std::process::exit(3);
-                        }
-                    }
-                    // Release: pairs with the main thread's Acquire load; the worker's last
-                    // records are in the outbox (under its mutex) before it counts itself out.
-                    shared.finished.fetch_add(1, Ordering::Release);
-                    (out, counters)
+                    let source = Fed {
+                        queue: &queue,
+                        events: events.clone(),
+                    };
+                    shade(&integrator, &tiles, &source, &mut handle, |_| {
+                        fail_if_asked(fail, rank)
+                    })
                 })
             });
-
-            // The rounds, on this (MPI's) thread, with a handle of their own for the others'
-            // records.
-            let mut remote = frame.handle_for(WorkerId::new(threads as u32));
-            let period = Duration::from_millis(exchange.batch_ms);
-            let mut last: Option<Instant> = None;
-            loop {
-                // Wait for the batch's size or time, or for the rank's workers to run dry.
-                loop {
-                    let pending = wfic::sync::unpoison(shared.outbox.lock()).len();
-                    let queued = wfic::sync::unpoison(shared.queue.lock()).len();
-                    if pending >= exchange.batch_records.max(1)
-                        || last.map_or(true, |l| l.elapsed() >= period)
-                        || (queued < threads && !plan.exhausted())
-                        || render.is_finished()
-                    {
-                        break;
-                    }
-                    std::thread::sleep(Duration::from_micros(250));
-                }
-                last = Some(Instant::now());
-                // Acquire: pairs with each worker's Release increment (see there): once every
-                // worker has counted itself out, the outbox taken below holds all its records.
-                let done = shared.finished.load(Ordering::Acquire) == threads;
-                let new = std::mem::take(&mut *wfic::sync::unpoison(shared.outbox.lock()));
-                let outgoing: Vec<WireRecord> = if exchange.share {
-                    new.iter().map(|r| WireRecord::new(r, rank)).collect()
-                } else {
-                    Vec::new()
-                };
-                for r in &outgoing {
-                    for x in r.fields {
-                        sent_digest.write(u64::from(x.to_bits()));
-                    }
-                    sent_digest.write(u64::from(r.origin));
-                }
-                computed.extend(new);
-                let queued = wfic::sync::unpoison(shared.queue.lock()).len() as u64;
-                let state = [
-                    queued,
-                    2 * threads as u64,
-                    u64::from(done && plan.exhausted()),
-                    outgoing.len() as u64,
-                ];
-                let mut states = vec![0u64; 4 * size];
-                let entered = Instant::now();
-                world.all_gather_into(&state[..], &mut states[..]);
-                let counts: Vec<Count> = (0..size).map(|r| states[4 * r + 3] as Count).collect();
-                let total: usize = counts.iter().map(|&c| c as usize).sum();
-                if total > 0 {
-                    let displs = displacements(&counts);
-                    let mut incoming = vec![WireRecord::default(); total];
-                    {
-                        let mut partition =
-                            PartitionMut::new(&mut incoming[..], &counts[..], &displs[..]);
-                        world.all_gather_varcount_into(&outgoing[..], &mut partition);
-                    }
-                    stats.collective_seconds += entered.elapsed().as_secs_f64();
-                    let inserting = Instant::now();
-                    let bytes = std::mem::size_of::<WireRecord>() as u64;
-                    stats.records_sent += outgoing.len() as u64;
-                    stats.bytes_sent += bytes * outgoing.len() as u64 * (size as u64 - 1);
-                    for r in incoming.iter().filter(|r| r.origin != rank) {
-                        stats.records_received += 1;
-                        stats.bytes_received += bytes;
-                        let d = &mut received_digest[r.origin as usize];
-                        for x in r.fields {
-                            d.write(u64::from(x.to_bits()));
-                        }
-                        d.write(u64::from(r.origin));
-                        if let Ok(Inserted::Stored(_)) = remote.insert(r.record()) {
-                            stats.records_inserted += 1;
-                        }
-                    }
-                    stats.insert_seconds += inserting.elapsed().as_secs_f64();
-                } else {
-                    stats.collective_seconds += entered.elapsed().as_secs_f64();
-                }
-                stats.rounds += 1;
-                // Every rank sees the same states, so every rank advances the plan the same way.
-                let queued: Vec<u64> = (0..size).map(|r| states[4 * r]).collect();
-                let want: Vec<u64> = (0..size).map(|r| states[4 * r + 1]).collect();
-                let all_done = (0..size).all(|r| states[4 * r + 2] == 1);
-                let given = plan.hand_out(&queued, &want);
-                wfic::sync::unpoison(shared.queue.lock()).extend(given[rank as usize].clone());
-                if plan.exhausted() {
-                    // Release: pairs with the workers' Acquire load (see there); the last tiles
-                    // are in the queue before it.
-                    shared.exhausted.store(true, Ordering::Release);
-                }
-                if all_done && total == 0 {
-                    break;
-                }
-            }
+            // The rounds, with a handle of their own for the others' records.
+            let mut remote = frame.handle_for(WorkerId::new(self.threads as u32));
+            rounds.run(&mut remote);
             drop(remote);
             render
                 .join()
                 .unwrap_or_else(|p| std::panic::resume_unwind(p))
         });
+        let (mut stats, computed) = rounds.finish();
         stats.seconds = start.elapsed().as_secs_f64();
         frame.close();
         stats.cache_records = cache.stats().records as u64;
-        stats.sent_digest = sent_digest.finish();
-        stats.received_digests = received_digest.iter().map(Fnv::finish).collect();
-        stats.received_digests[rank as usize] = 0;
         let mut counters = SampleCounters::default();
-        let mut mine: Vec<(usize, Vec<Vec3>)> = Vec::new();
-        for (out, c) in outputs {
-            mine.extend(out);
-            counters += c;
+        let mut mine = Vec::new();
+        for out in outputs {
+            mine.extend(out.blocks);
+            counters += out.counters;
         }
         stats.tiles = mine.len();
         stats.ic_samples = counters.ic_samples;
         stats.records_computed = computed.len() as u64;
+        RankFrame {
+            tiles: mine,
+            computed,
+            stats,
+        }
+    }
 
-        // Assembly on rank 0: tiles, statistics, computed records.
+    /// Gathers every rank's tiles, statistics and computed records on rank 0, which assembles
+    /// the frame; `None` on the other ranks.
+    fn assemble(&self, mine: RankFrame, start: Instant) -> Option<DistributedFrame> {
+        let (world, rank) = (self.world, self.rank);
         let root = world.process_at_rank(0);
-        let index: Vec<u64> = mine.iter().map(|(t, _)| *t as u64).collect();
+        let index: Vec<u64> = mine.tiles.iter().map(|(t, _)| *t as u64).collect();
         let pixels: Vec<f32> = mine
+            .tiles
             .iter()
             .flat_map(|(_, p)| p.iter().flat_map(|v| v.to_array()))
             .collect();
-        let wire: Vec<WireRecord> = computed.iter().map(|r| WireRecord::new(r, rank)).collect();
-        let json = serde_json::to_string(&stats).expect("rank statistics serialise");
+        let wire: Vec<WireRecord> = mine
+            .computed
+            .iter()
+            .map(|r| WireRecord::new(r, rank))
+            .collect();
+        let json = serde_json::to_string(&mine.stats).expect("rank statistics serialise");
         let gathered_index = gather(world, &root, &index);
         let gathered_pixels = gather(world, &root, &pixels);
         let gathered_records = gather(world, &root, &wire);
         let gathered_json = gather(world, &root, json.as_bytes());
         if rank != 0 {
-            continue;
+            return None;
         }
         let (index, pixels, wire, json) = (
             gathered_index.expect("rank 0 gathers"),
@@ -661,17 +596,18 @@ pub fn render_distributed_frames(
             gathered_records.expect("rank 0 gathers"),
             gathered_json.expect("rank 0 gathers"),
         );
-        let mut image = Image::new(settings.width, settings.height);
+        let tiles = Tiles::new(self.settings);
+        let mut image = Image::new(self.settings.width, self.settings.height);
         for (tiles_of_rank, pixels_of_rank) in index.iter().zip(&pixels) {
-            let mut at = 0;
+            let mut values = pixels_of_rank.chunks_exact(3).map(Vec3::from_slice);
             for tile in tiles_of_rank {
-                let (x0, y0, x1, y1) = tiles.rect(*tile as usize);
-                for y in y0..y1 {
-                    for x in x0..x1 {
-                        image.set(x, y, Vec3::from_slice(&pixels_of_rank[at..at + 3]));
-                        at += 3;
-                    }
-                }
+                let tile = *tile as usize;
+                work::paint(
+                    &tiles,
+                    tile,
+                    values.by_ref().take(tiles.pixel_count(tile)),
+                    &mut image,
+                );
             }
         }
         let ranks: Vec<RankStats> = json
@@ -683,16 +619,223 @@ pub fn render_distributed_frames(
             .flatten()
             .map(|w| (w.origin, w.record()))
             .collect();
-        let duplicates = count_duplicates(&records, config.accuracy());
-        frames.push(DistributedFrame {
+        let duplicates = count_duplicates(&records, self.config.accuracy());
+        let seconds = start.elapsed().as_secs_f64();
+        Some(DistributedFrame {
             image,
-            ranks,
             records,
-            duplicates,
-            seconds: start.elapsed().as_secs_f64(),
-        });
+            stats: DistributedFrameStats::new(ranks, duplicates, seconds),
+        })
     }
-    Ok((rank == 0).then_some(frames))
+}
+
+/// The failure `--fail-rank` asks for (`fail`, see [`render_distributed`]), if it names `rank`:
+/// called after each tile.
+fn fail_if_asked(fail: Option<(u32, bool)>, rank: u32) {
+    if fail == Some((rank, false)) {
+        panic!("rank {rank}: the failure asked for by --fail-rank");
+    }
+    if fail == Some((rank, true)) {
+        eprintln!("rank {rank}: exiting as asked by --fail-rank");
+        std::process::exit(3);
+    }
+}
+
+/// A rank's exchange rounds during one frame, run by its MPI thread.
+struct Rounds<'a> {
+    job: &'a Job<'a>,
+    plan: TilePlan,
+    queue: &'a Queue,
+    outbox: &'a Mutex<Vec<Record>>,
+    events: mpsc::Receiver<Event>,
+    /// Workers that have reported [`Event::Finished`].
+    finished: usize,
+    stats: RankStats,
+    sent_digest: Fnv,
+    received_digest: Vec<Fnv>,
+    computed: Vec<Record>,
+}
+
+/// What the ranks agree on at a round: every rank's state.
+struct Round {
+    /// Per rank: tiles queued, tiles it wants queued, 1 when it is done, records it sends.
+    states: Vec<u64>,
+    /// The others' records and this rank's own, by rank.
+    incoming: Vec<WireRecord>,
+}
+
+impl<'a> Rounds<'a> {
+    fn new(
+        job: &'a Job<'a>,
+        plan: TilePlan,
+        queue: &'a Queue,
+        outbox: &'a Mutex<Vec<Record>>,
+        events: mpsc::Receiver<Event>,
+    ) -> Self {
+        Self {
+            stats: RankStats {
+                rank: job.rank,
+                threads: job.threads,
+                received_digests: vec![Fnv::new().finish(); job.size],
+                ..RankStats::default()
+            },
+            received_digest: (0..job.size).map(|_| Fnv::new()).collect(),
+            job,
+            plan,
+            queue,
+            outbox,
+            events,
+            finished: 0,
+            sent_digest: Fnv::new(),
+            computed: Vec::new(),
+        }
+    }
+
+    /// Runs rounds until every rank has rendered every tile it was given, no tile is left and
+    /// no record is in flight. The first round starts at once.
+    fn run(&mut self, remote: &mut impl CacheHandle) {
+        let period = Duration::from_millis(self.job.exchange.batch_ms);
+        let mut deadline = None;
+        loop {
+            self.wait_for_round(deadline);
+            deadline = Some(Instant::now() + period);
+            if self.round(remote) {
+                break;
+            }
+        }
+    }
+
+    fn note(&mut self, event: Event) {
+        if event == Event::Finished {
+            self.finished += 1;
+        }
+    }
+
+    /// Waits until a round is due: at `deadline` (`None`: now), or as soon as the outbox holds
+    /// a batch, the queue holds fewer tiles than there are workers while tiles are left, or every
+    /// worker has finished. Sleeps on the workers' events between checks.
+    fn wait_for_round(&mut self, deadline: Option<Instant>) {
+        let Some(deadline) = deadline else { return };
+        let (threads, batch) = (self.job.threads, self.job.exchange.batch_records.max(1));
+        loop {
+            let pending = wfic::sync::unpoison(self.outbox.lock()).len();
+            if pending >= batch
+                || (self.queue.len() < threads && !self.plan.exhausted())
+                || self.finished == threads
+            {
+                return;
+            }
+            let Some(left) = deadline.checked_duration_since(Instant::now()) else {
+                return;
+            };
+            match self.events.recv_timeout(left) {
+                Ok(event) => self.note(event),
+                // Timeout: the round is due. Disconnected: every worker has returned.
+                Err(_) => return,
+            }
+        }
+    }
+
+    /// One round: takes the outbox, agrees on every rank's state and new records, inserts the
+    /// others' records and hands out tiles. Returns whether the frame is over on every rank.
+    fn round(&mut self, remote: &mut impl CacheHandle) -> bool {
+        // Every event so far: a worker that has reported Finished stored its last record in
+        // the outbox before (the channel orders the two), so the outbox taken below holds them.
+        while let Ok(event) = self.events.try_recv() {
+            self.note(event);
+        }
+        let done = self.finished == self.job.threads;
+        let new = std::mem::take(&mut *wfic::sync::unpoison(self.outbox.lock()));
+        let rank = self.job.rank;
+        let outgoing: Vec<WireRecord> = if self.job.exchange.share {
+            new.iter().map(|r| WireRecord::new(r, rank)).collect()
+        } else {
+            Vec::new()
+        };
+        for r in &outgoing {
+            for x in r.fields {
+                self.sent_digest.write(u64::from(x.to_bits()));
+            }
+            self.sent_digest.write(u64::from(r.origin));
+        }
+        self.computed.extend(new);
+        let state = [
+            self.queue.len() as u64,
+            2 * self.job.threads as u64,
+            u64::from(done && self.plan.exhausted()),
+            outgoing.len() as u64,
+        ];
+        let round = self.agree_on(&state, &outgoing);
+        if !round.incoming.is_empty() {
+            self.insert(&round.incoming, outgoing.len(), remote);
+        }
+        self.stats.rounds += 1;
+        // Every rank sees the same states, so every rank advances the plan the same way.
+        let size = self.job.size;
+        let states = &round.states;
+        let queued: Vec<u64> = (0..size).map(|r| states[4 * r]).collect();
+        let want: Vec<u64> = (0..size).map(|r| states[4 * r + 1]).collect();
+        let all_done = (0..size).all(|r| states[4 * r + 2] == 1);
+        let given = self.plan.hand_out(&queued, &want);
+        self.queue.push(given[rank as usize].clone());
+        if self.plan.exhausted() {
+            self.queue.close();
+        }
+        all_done && round.incoming.is_empty()
+    }
+
+    /// The round's collectives: every rank's `state` (`MPI_Allgather`), then, when any rank
+    /// sends records, every rank's `outgoing` (`MPI_Allgatherv`); timed.
+    fn agree_on(&mut self, state: &[u64; 4], outgoing: &[WireRecord]) -> Round {
+        let (world, size) = (self.job.world, self.job.size);
+        let mut states = vec![0u64; 4 * size];
+        let entered = Instant::now();
+        world.all_gather_into(&state[..], &mut states[..]);
+        let counts: Vec<Count> = (0..size).map(|r| states[4 * r + 3] as Count).collect();
+        let total: usize = counts.iter().map(|&c| c as usize).sum();
+        let mut incoming = vec![WireRecord::default(); total];
+        if total > 0 {
+            let displs = displacements(&counts);
+            let mut partition = PartitionMut::new(&mut incoming[..], &counts[..], &displs[..]);
+            world.all_gather_varcount_into(outgoing, &mut partition);
+        }
+        self.stats.collective_seconds += entered.elapsed().as_secs_f64();
+        Round { states, incoming }
+    }
+
+    /// Counts the `sent` records this rank sent, and inserts the others' `incoming` records into
+    /// the cache through `remote`, digesting them by sender; timed.
+    fn insert(&mut self, incoming: &[WireRecord], sent: usize, remote: &mut impl CacheHandle) {
+        let inserting = Instant::now();
+        let bytes = std::mem::size_of::<WireRecord>() as u64;
+        let (rank, size) = (self.job.rank, self.job.size);
+        let stats = &mut self.stats;
+        stats.records_sent += sent as u64;
+        stats.bytes_sent += bytes * sent as u64 * (size as u64 - 1);
+        for r in incoming.iter().filter(|r| r.origin != rank) {
+            stats.records_received += 1;
+            stats.bytes_received += bytes;
+            let d = &mut self.received_digest[r.origin as usize];
+            for x in r.fields {
+                d.write(u64::from(x.to_bits()));
+            }
+            d.write(u64::from(r.origin));
+            if let Ok(Inserted::Stored(_)) = remote.insert(r.record()) {
+                stats.records_inserted += 1;
+            }
+        }
+        stats.insert_seconds += inserting.elapsed().as_secs_f64();
+    }
+
+    /// The rank's statistics of the rounds, digests included, and the records its workers
+    /// computed.
+    fn finish(self) -> (RankStats, Vec<Record>) {
+        let mut stats = self.stats;
+        stats.sent_digest = self.sent_digest.finish();
+        stats.received_digests = self.received_digest.iter().map(Fnv::finish).collect();
+        stats.received_digests[self.job.rank as usize] = 0;
+        (stats, self.computed)
+    }
 }
 
 /// Records computed where a record that another rank computed is also valid (Ward's weight at the

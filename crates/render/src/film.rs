@@ -81,7 +81,7 @@ impl Image {
         }
         let (mut num, mut den) = (0.0f64, 0.0f64);
         for (a, b) in self.pixels.iter().zip(&reference.pixels) {
-            if super::scene::luminance(*b) <= max_luminance {
+            if super::colour::luminance(*b) <= max_luminance {
                 num += f64::from((*a - *b).length_squared());
                 den += f64::from(b.length_squared());
             }
@@ -98,7 +98,7 @@ impl Image {
     pub fn auto_exposure(&self) -> f32 {
         let (mut sum, mut n) = (0.0f64, 0usize);
         for &p in &self.pixels {
-            let l = super::scene::luminance(p);
+            let l = super::colour::luminance(p);
             if l.is_finite() && l > 0.0 {
                 sum += f64::from(l).ln();
                 n += 1;

@@ -19,10 +19,9 @@ use obvhs::rt_triangle::RtTriangle;
 /// Triangles a batch tests at once.
 const LANES: usize = 8;
 
-/// Up to this many triangles a scene is traversed flat; above, through its BVH. Measured by
-/// `benches/rays.rs` (a closest hit and a shadow ray each from inside a box of random
-/// triangles), flat over BVH: 0.61x at 16 triangles, 0.65x at 32, 0.90x at 64, 1.23x at 96,
-/// 1.35x at 128, 2.1x at 256 (`paper-notes.md`, "Radiance side by side").
+/// Up to this many triangles a scene is traversed flat; above, through its BVH: the count where
+/// the flat list stops being faster than the BVH in `benches/rays.rs` (a closest hit and a
+/// shadow ray each from inside a box of random triangles).
 pub const FLAT_MAX: usize = 64;
 
 /// How a scene answers ray queries.

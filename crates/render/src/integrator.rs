@@ -31,20 +31,20 @@
 //!   projected solid angle: a sector edge at distance `r` moves by `dphi = dx / (r sin t)` and the
 //!   cell's projected solid angle density is `cos t sin t dt dphi`, so the edge sweeps
 //!   `dx / r * integral cos t dt = dx (sin t+ - sin t-) / r`. The form usually quoted,
-//!   `(cos t- - cos t+) / (sin t_c r)`, weights grazing rings by an extra `1 / cos t`; against
-//!   central differences in front of a wall it overestimated the gradient 1.4-2x, the derived
-//!   form is within 5% (`translational_gradient_matches_finite_differences_next_to_a_wall`).
+//!   `(cos t- - cos t+) / (sin t_c r)`, weights grazing rings by an extra `1 / cos t` and so
+//!   overestimates the gradient in front of a wall; the derived form agrees with central
+//!   differences there (`translational_gradient_matches_finite_differences_next_to_a_wall`).
 
 use super::camera::{Camera, View};
 use super::lights::LightChoice;
 use super::sampler::{self, Rng, Stream};
 use super::scene::Scene;
 use super::RenderSettings;
-use wfic::cache::CacheHandle;
-use wfic::ic::{self, Record};
 use glam::Vec3;
 use std::f32::consts::{PI, TAU};
 use std::time::{Duration, Instant};
+use wfic::cache::CacheHandle;
+use wfic::ic::{self, Record};
 
 /// The strata of a hemisphere estimate: `theta` rings times `phi` sectors.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -211,7 +211,7 @@ pub const NEAR_HIT_SAMPLES: u32 = 16;
 /// Shuffles `items` into a uniformly random order (Fisher-Yates).
 fn shuffle<T>(items: &mut [T], rng: &mut Rng) {
     for k in (1..items.len()).rev() {
-        // Multiply-shift, not `%`: a 64-bit division per cell was a visible share of a record.
+        // Multiply-shift, not `%`: a 64-bit division per cell costs a visible share of a record.
         let j = rng.below(k as u64 + 1) as usize;
         items.swap(k, j);
     }
@@ -240,142 +240,207 @@ pub fn sample_irradiance(
     rng: &mut Rng,
     rays: &mut RayCounts,
 ) -> IrradianceSample {
-    let (m, nn) = (strata.theta as usize, strata.phi as usize);
-    let (t, b) = frame(n);
-    let origin = x + n * eps;
-    // Radiance and hit distance per cell, ring-major: cell (j, k) at j * N + k.
-    let mut radiance = vec![Vec3::ZERO; m * nn];
-    let mut dist = vec![f32::INFINITY; m * nn];
-    let mut inv_dist_sum = 0.0f64;
-    // The light samples at the hits, one per cell, are stratified across the cells: cell c takes
-    // stratum choice[c] of the light choice (u[0]) and stratum spot[c] of an M x N grid over the
-    // point on the light (u[1], u[2]), from two independent permutations. Each sample is still
-    // uniform on its own (the estimate stays unbiased), but the estimate's samples cover the
-    // lights evenly instead of clumping: with one light sample per hit, their clumping was most
-    // of a record's noise.
-    let cells = m * nn;
-    let mut choice: Vec<u32> = (0..cells as u32).collect();
-    shuffle(&mut choice, rng);
-    // The grid cells themselves, (ring, sector), shuffled: no division per hit to find them.
-    let mut spot: Vec<(u32, u32)> = (0..m as u32)
-        .flat_map(|a| (0..nn as u32).map(move |b| (a, b)))
-        .collect();
-    shuffle(&mut spot, rng);
-    let (inv_m, inv_nn, inv_cells) = (1.0 / m as f32, 1.0 / nn as f32, 1.0 / cells as f32);
-    // Azimuth phi = dphi (k + r), r uniform in [0, 1), is the sector's centre turned by
-    // dphi (r - 1/2): its sine and cosine come from the centre's, computed once per sector, and
-    // the turn's (at most half a sector) from a short series when there are 6 sectors or more.
-    let dphi = TAU / nn as f32;
-    let centre: Vec<(f32, f32)> = (0..nn)
-        .map(|k| (dphi * (k as f32 + 0.5)).sin_cos())
-        .collect();
-    let series = nn >= 6;
-    // One emitter table for every hit, overwritten at each (Lights::choice_into).
-    let mut lights = LightChoice::empty();
-    for j in 0..m {
-        for (k, &(sin_c, cos_c)) in centre.iter().enumerate() {
-            let u = ((j as f32 + rng.next_f32()) * inv_m).min(1.0);
-            let turn = dphi * (rng.next_f32() - 0.5);
-            let (sin_d, cos_d) = if series {
-                sin_cos_small(turn)
-            } else {
-                turn.sin_cos()
-            };
-            let (sin_t, cos_t) = (u.sqrt(), (1.0 - u).max(0.0).sqrt());
-            let (sin_p, cos_p) = (sin_c * cos_d + cos_c * sin_d, cos_c * cos_d - sin_c * sin_d);
-            // Unit to rounding: t, b, n are orthonormal and sin^2 + cos^2 = 1 for both angles.
-            let w = t * (cos_p * sin_t) + b * (sin_p * sin_t) + n * cos_t;
-            rays.hemisphere += 1;
-            if let Some(hit) = scene.intersect(origin, w, f32::INFINITY) {
-                let y = origin + w * hit.t;
-                let ny = facing(hit.normal, w);
-                // Reflected light only: the lights' own emission is in E_direct (module doc).
-                let c = j * nn + k;
-                let (a, b) = spot[c];
-                // light_contribution keeps each below 1.
-                let u = [
-                    (choice[c] as f32 + rng.next_f32()) * inv_cells,
-                    (a as f32 + rng.next_f32()) * inv_m,
-                    (b as f32 + rng.next_f32()) * inv_nn,
-                ];
-                let oy = y + ny * eps;
-                scene.light_choice_into(oy, ny, &mut lights);
-                // Next to an emitter sampled by area one sample's `1 / d^2` varies by more than
-                // 4x over it: take NEAR_HIT_SAMPLES there.
-                let ed = if lights.near() {
-                    direct_irradiance(scene, y, ny, NEAR_HIT_SAMPLES, eps, rng, rays)
-                } else {
-                    light_contribution(scene, &lights, oy, ny, u, rays)
-                };
-                radiance[j * nn + k] = hit.material.albedo * ed * (1.0 / PI);
-                dist[j * nn + k] = hit.t;
-                inv_dist_sum += 1.0 / f64::from(hit.t.max(eps));
-            }
-        }
-    }
-    let cells = cells as f32;
-    let irradiance = radiance.iter().copied().sum::<Vec3>() * (PI / cells);
-    let harmonic_mean = if inv_dist_sum > 0.0 {
-        (f64::from(cells) / inv_dist_sum) as f32
+    let hemisphere = Hemisphere::new(n, strata);
+    let cells = hemisphere.sample(scene, x, eps, rng, rays);
+    let count = (hemisphere.m * hemisphere.nn) as f32;
+    let irradiance = cells.radiance.iter().copied().sum::<Vec3>() * (PI / count);
+    let harmonic_mean = if cells.inv_dist_sum > 0.0 {
+        (f64::from(count) / cells.inv_dist_sum) as f32
     } else {
         f32::INFINITY
     };
-
-    let dir = |phi: f32| {
-        let (s, c) = phi.sin_cos();
-        t * c + b * s
-    };
-    // sin of the lower edge of ring j: the rings are uniform in sin^2 theta, so sin(theta_j-) is
-    // sqrt(j / M) and cos(theta_j-) is sqrt(1 - j / M), no trigonometry needed.
-    let sin_lo: Vec<f32> = (0..=m).map(|j| (j as f32 / m as f32).sqrt()).collect();
-    let mut grad_r = [Vec3::ZERO; 3];
-    let mut grad_t = [Vec3::ZERO; 3];
-    let add = |g: &mut [Vec3; 3], d: Vec3, l: Vec3| {
-        g[0] += d * l.x;
-        g[1] += d * l.y;
-        g[2] += d * l.z;
-    };
-    // Rotational: tan of ring j's centre angle, times the cell's share.
-    let tan_c: Vec<f32> = (0..m)
-        .map(|j| {
-            let u_c = (j as f32 + 0.5) / m as f32;
-            (u_c / (1.0 - u_c)).sqrt() * PI / cells
-        })
-        .collect();
-    for (k, &(sin_c, cos_c)) in centre.iter().enumerate() {
-        let phi_lo = dphi * k as f32;
-        // The sector's centre direction and the one a quarter turn on.
-        let u_k = t * cos_c + b * sin_c;
-        let v_k = b * cos_c - t * sin_c;
-        let v_lo = dir(phi_lo + 0.5 * PI);
-        let prev = (k + nn - 1) % nn;
-        for j in 0..m {
-            let cell = j * nn + k;
-            let l = radiance[cell];
-            add(&mut grad_r, v_k, l * tan_c[j]);
-            // Translational, ring boundary between j - 1 and j.
-            if j > 0 {
-                let s = sin_lo[j];
-                let c2 = 1.0 - s * s;
-                let r = dist[cell].min(dist[cell - nn]);
-                if r.is_finite() {
-                    let coef = TAU / nn as f32 * s * c2 / r;
-                    add(&mut grad_t, u_k, (l - radiance[cell - nn]) * coef);
-                }
-            }
-            // Translational, sector boundary between k - 1 and k.
-            let r = dist[cell].min(dist[j * nn + prev]);
-            if r.is_finite() {
-                let coef = (sin_lo[j + 1] - sin_lo[j]) / r;
-                add(&mut grad_t, v_lo, (l - radiance[j * nn + prev]) * coef);
-            }
-        }
-    }
+    let (grad_r, grad_t) = hemisphere.gradients(&cells, count);
     IrradianceSample {
         irradiance,
         harmonic_mean,
         grad_t,
         grad_r,
+    }
+}
+
+/// The strata of one hemisphere estimate around a normal: `m` rings by `nn` sectors, in the
+/// tangent frame `t`, `b`, `n`.
+struct Hemisphere {
+    t: Vec3,
+    b: Vec3,
+    n: Vec3,
+    m: usize,
+    nn: usize,
+    /// A sector's width in azimuth.
+    dphi: f32,
+    /// Per sector, the sine and cosine of its centre's azimuth.
+    centre: Vec<(f32, f32)>,
+}
+
+/// What the hemisphere rays found, per cell, ring-major: cell (j, k) at `j * N + k`.
+struct Cells {
+    /// The reflected radiance each cell's ray brought (zero for a ray that escaped).
+    radiance: Vec<Vec3>,
+    /// The distance to each cell's hit (infinite for a ray that escaped).
+    dist: Vec<f32>,
+    /// The sum of the inverse hit distances, for the harmonic mean.
+    inv_dist_sum: f64,
+}
+
+impl Hemisphere {
+    fn new(n: Vec3, strata: Strata) -> Self {
+        let (m, nn) = (strata.theta as usize, strata.phi as usize);
+        let (t, b) = frame(n);
+        // Azimuth phi = dphi (k + r), r uniform in [0, 1), is the sector's centre turned by
+        // dphi (r - 1/2): its sine and cosine come from the centre's, computed once per sector,
+        // and the turn's (at most half a sector) from a short series when there are 6 sectors or
+        // more.
+        let dphi = TAU / nn as f32;
+        let centre: Vec<(f32, f32)> = (0..nn)
+            .map(|k| (dphi * (k as f32 + 0.5)).sin_cos())
+            .collect();
+        Self {
+            t,
+            b,
+            n,
+            m,
+            nn,
+            dphi,
+            centre,
+        }
+    }
+
+    /// Traces one jittered ray per cell from `x` (offset by `eps` along the normal) and takes one
+    /// light sample at each hit.
+    fn sample(
+        &self,
+        scene: &Scene,
+        x: Vec3,
+        eps: f32,
+        rng: &mut Rng,
+        rays: &mut RayCounts,
+    ) -> Cells {
+        let (m, nn, t, b, n) = (self.m, self.nn, self.t, self.b, self.n);
+        let origin = x + n * eps;
+        let mut out = Cells {
+            radiance: vec![Vec3::ZERO; m * nn],
+            dist: vec![f32::INFINITY; m * nn],
+            inv_dist_sum: 0.0,
+        };
+        // The light samples at the hits, one per cell, are stratified across the cells: cell c
+        // takes stratum choice[c] of the light choice (u[0]) and stratum spot[c] of an M x N grid
+        // over the point on the light (u[1], u[2]), from two independent permutations. Each
+        // sample is still uniform on its own (the estimate stays unbiased), but the estimate's
+        // samples cover the lights evenly instead of clumping: with one light sample per hit,
+        // clumping makes most of a record's noise.
+        let cells = m * nn;
+        let mut choice: Vec<u32> = (0..cells as u32).collect();
+        shuffle(&mut choice, rng);
+        // The grid cells themselves, (ring, sector), shuffled: no division per hit to find them.
+        let mut spot: Vec<(u32, u32)> = (0..m as u32)
+            .flat_map(|a| (0..nn as u32).map(move |b| (a, b)))
+            .collect();
+        shuffle(&mut spot, rng);
+        let (inv_m, inv_nn, inv_cells) = (1.0 / m as f32, 1.0 / nn as f32, 1.0 / cells as f32);
+        let series = nn >= 6;
+        // One emitter table for every hit, overwritten at each (Lights::choice_into).
+        let mut lights = LightChoice::empty();
+        for j in 0..m {
+            for (k, &(sin_c, cos_c)) in self.centre.iter().enumerate() {
+                let u = ((j as f32 + rng.next_f32()) * inv_m).min(1.0);
+                let turn = self.dphi * (rng.next_f32() - 0.5);
+                let (sin_d, cos_d) = if series {
+                    sin_cos_small(turn)
+                } else {
+                    turn.sin_cos()
+                };
+                let (sin_t, cos_t) = (u.sqrt(), (1.0 - u).max(0.0).sqrt());
+                let (sin_p, cos_p) = (sin_c * cos_d + cos_c * sin_d, cos_c * cos_d - sin_c * sin_d);
+                // Unit to rounding: t, b, n are orthonormal and sin^2 + cos^2 = 1 for both angles.
+                let w = t * (cos_p * sin_t) + b * (sin_p * sin_t) + n * cos_t;
+                rays.hemisphere += 1;
+                if let Some(hit) = scene.intersect(origin, w, f32::INFINITY) {
+                    let y = origin + w * hit.t;
+                    let ny = facing(hit.normal, w);
+                    // Reflected light only: the lights' own emission is in E_direct (module doc).
+                    let c = j * nn + k;
+                    let (a, b) = spot[c];
+                    // light_contribution keeps each below 1.
+                    let u = [
+                        (choice[c] as f32 + rng.next_f32()) * inv_cells,
+                        (a as f32 + rng.next_f32()) * inv_m,
+                        (b as f32 + rng.next_f32()) * inv_nn,
+                    ];
+                    let oy = y + ny * eps;
+                    scene.light_choice_into(oy, ny, &mut lights);
+                    // Next to an emitter sampled by area one sample's `1 / d^2` varies by more
+                    // than 4x over it: take NEAR_HIT_SAMPLES there.
+                    let ed = if lights.near() {
+                        direct_irradiance(scene, y, ny, NEAR_HIT_SAMPLES, eps, rng, rays)
+                    } else {
+                        light_contribution(scene, &lights, oy, ny, u, rays)
+                    };
+                    out.radiance[j * nn + k] = hit.material.albedo * ed * (1.0 / PI);
+                    out.dist[j * nn + k] = hit.t;
+                    out.inv_dist_sum += 1.0 / f64::from(hit.t.max(eps));
+                }
+            }
+        }
+        out
+    }
+
+    /// Ward and Heckbert's rotational and translational gradients from the cells (module doc);
+    /// `cells` is the number of cells.
+    fn gradients(&self, found: &Cells, cells: f32) -> ([Vec3; 3], [Vec3; 3]) {
+        let (m, nn, t, b, dphi) = (self.m, self.nn, self.t, self.b, self.dphi);
+        let (radiance, dist) = (&found.radiance, &found.dist);
+        let dir = |phi: f32| {
+            let (s, c) = phi.sin_cos();
+            t * c + b * s
+        };
+        // sin of the lower edge of ring j: the rings are uniform in sin^2 theta, so
+        // sin(theta_j-) is sqrt(j / M) and cos(theta_j-) is sqrt(1 - j / M), no trigonometry
+        // needed.
+        let sin_lo: Vec<f32> = (0..=m).map(|j| (j as f32 / m as f32).sqrt()).collect();
+        let mut grad_r = [Vec3::ZERO; 3];
+        let mut grad_t = [Vec3::ZERO; 3];
+        let add = |g: &mut [Vec3; 3], d: Vec3, l: Vec3| {
+            g[0] += d * l.x;
+            g[1] += d * l.y;
+            g[2] += d * l.z;
+        };
+        // Rotational: tan of ring j's centre angle, times the cell's share.
+        let tan_c: Vec<f32> = (0..m)
+            .map(|j| {
+                let u_c = (j as f32 + 0.5) / m as f32;
+                (u_c / (1.0 - u_c)).sqrt() * PI / cells
+            })
+            .collect();
+        for (k, &(sin_c, cos_c)) in self.centre.iter().enumerate() {
+            let phi_lo = dphi * k as f32;
+            // The sector's centre direction and the one a quarter turn on.
+            let u_k = t * cos_c + b * sin_c;
+            let v_k = b * cos_c - t * sin_c;
+            let v_lo = dir(phi_lo + 0.5 * PI);
+            let prev = (k + nn - 1) % nn;
+            for j in 0..m {
+                let cell = j * nn + k;
+                let l = radiance[cell];
+                add(&mut grad_r, v_k, l * tan_c[j]);
+                // Translational, ring boundary between j - 1 and j.
+                if j > 0 {
+                    let s = sin_lo[j];
+                    let c2 = 1.0 - s * s;
+                    let r = dist[cell].min(dist[cell - nn]);
+                    if r.is_finite() {
+                        let coef = TAU / nn as f32 * s * c2 / r;
+                        add(&mut grad_t, u_k, (l - radiance[cell - nn]) * coef);
+                    }
+                }
+                // Translational, sector boundary between k - 1 and k.
+                let r = dist[cell].min(dist[j * nn + prev]);
+                if r.is_finite() {
+                    let coef = (sin_lo[j + 1] - sin_lo[j]) / r;
+                    add(&mut grad_t, v_lo, (l - radiance[j * nn + prev]) * coef);
+                }
+            }
+        }
+        (grad_r, grad_t)
     }
 }
 

@@ -1,26 +1,30 @@
-//! A compact, real renderer that drives the caches end to end (DESIGN.md, layer 5).
+//! A compact, real renderer that drives wfic's irradiance caches end to end: the workload the
+//! caches are measured under. `docs/renderer.md` describes it at length.
 //!
 //! One module per job, as pbrt-v4 organises a renderer:
 //!
 //! * [`scene`] — triangles, diffuse materials, emissive triangles, the BVH (obvhs);
 //! * [`scenes`] — the paper's five scenes, all real models: the Cornell box from the published
 //!   data, Sponza, the Conference Room, the Office and its Desk view, compiled in from `scenes/`
-//!   (`scenes/README.md`; `paper-notes.md`, section "The renderer and its five scenes");
+//!   (`scenes/README.md` gives their origins);
 //! * [`lights`] — the area lights grouped into emitters, chosen per point by power over distance;
-//! * [`obj`] — Wavefront OBJ/MTL loading for user scenes;
+//! * [`colour`] — luminance and the sRGB curve, shared by the modules that weigh or decode colours;
+//! * [`obj`] — Wavefront OBJ/MTL loading, from the file system or any [`obj::FileResolver`];
 //! * [`camera`] — pinhole camera and the orbit of the paper's animations;
 //! * [`sampler`] — per-pixel deterministic random numbers;
 //! * [`integrator`] — per-sample radiance (`Li`): direct light and one indirect diffuse bounce
 //!   through the cache (lookup, else a hemisphere estimate with limited gradients, inserted);
 //! * [`film`] — the HDR image, PNG/PFM output, the record overlay, relative RMSE;
-//! * [`parallel`] — the render loop: image tiles handed out to the workers of one cache frame,
-//!   on scoped threads or a rayon pool;
-//! * [`stats`] — what a frame counts, and its JSON form;
-//! * [`cli`] — the `wfic render` subcommand.
+//! * [`work`] — the work sources (an atomic counter, a fed queue) and the one worker loop every
+//!   render runs;
+//! * [`parallel`] — a frame's tiles shaded by the workers of one cache frame, on scoped threads
+//!   or a rayon pool, and the reference grid;
+//! * `distributed` (feature `mpi`) — one frame over the ranks of an MPI job;
+//! * [`stats`] — what a frame counts, and its JSON forms.
 //!
 //! ```no_run
 //! use wfic::cache::{wf::Minimal, CasFailure, WaitFree};
-//! use wfic_render::{self, scenes, Camera, RenderSettings};
+//! use wfic_render::{scenes, Camera, RenderSettings};
 //!
 //! let scene = scenes::cornell().unwrap();
 //! let settings = RenderSettings::new(128, 128);
@@ -28,13 +32,14 @@
 //! let mut cache = WaitFree::<Minimal>::new(config, CasFailure::Adopt);
 //! for frame in 0..4 {
 //!     let camera = Camera::orbit(&scene, frame as f32 / 4.0);
-//!     let out = render::render_frame(&scene, &camera, &settings, &mut cache, 2);
+//!     let out = wfic_render::render_frame(&scene, &camera, &settings, &mut cache, 2);
 //!     println!("frame {frame}: {:.3} s, {} records computed", out.stats.seconds, out.stats.ic_samples);
 //! }
 //! ```
 //!
 //! The renderer has no `unsafe` code: the cache is its only shared mutable state, apart from the
-//! tile counter (a Relaxed atomic from [`wfic::sync`]) and the progress bar.
+//! work sources (a Relaxed atomic counter from [`wfic::sync`], or a queue under a lock) and the
+//! progress bar.
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 // Under the core's model checkers (features `loom`, `shuttle`: `cfg(checker)`, set by the
@@ -42,6 +47,7 @@
 #![cfg(not(checker))]
 
 pub mod camera;
+pub mod colour;
 #[cfg(feature = "mpi")]
 pub mod distributed;
 pub mod film;
@@ -54,6 +60,7 @@ pub mod sampler;
 pub mod scene;
 pub mod scenes;
 pub mod stats;
+pub mod work;
 
 pub use camera::{Camera, Orbit};
 pub use film::Image;
@@ -64,8 +71,8 @@ pub use parallel::{
 pub use scene::{Material, Scene, SceneBuilder, SceneError};
 pub use stats::FrameStats;
 
-use wfic::cache::{CacheConfig, ConfigError};
 use integrator::Strata;
+use wfic::cache::{CacheConfig, ConfigError};
 
 /// How a frame is rendered: image size, sampling and the cache's radius clamps.
 ///
@@ -90,13 +97,13 @@ pub struct RenderSettings {
     /// The smoothing `k` (at least 1): a pixel interpolates every record valid at accuracy
     /// `k a`, but a new record is computed only where none is valid at `a`. The records are the
     /// ones `k = 1` computes; each pixel averages more of them, so their sampling noise averages
-    /// down, for some interpolation error (`paper-notes.md`, "Radiance side by side"). 1, the
-    /// default, is Ward's cache as the paper has it.
+    /// down, for some interpolation error (`docs/renderer.md`). 1, the default, is Ward's cache
+    /// as the paper has it.
     pub smoothing: f32,
     /// Light samples (shadow rays) for the direct term at each primary hit. The default, 16,
     /// is the count at which the direct light's noise in the Cornell box falls below
-    /// Radiance's deterministic sampling at its defaults (`paper-notes.md`, "Radiance side by
-    /// side"); 8, the earlier default, left it above on every scene but Sponza.
+    /// Radiance's deterministic sampling at its defaults, so the two renderers' images compare
+    /// on their indirect light.
     pub light_samples: u32,
     /// Primary rays per pixel (stratified jitter, box filter). Each primary hit is shaded on its
     /// own, so each makes its own cache lookup, as in a renderer that antialiases. 1 shoots one

@@ -8,11 +8,10 @@
 //! emitter); then one of the emitter's triangles by power; then a point uniform in that
 //! triangle's area.
 //!
-//! Choosing by power alone, as the renderer did before, gives each emitter the same share at
-//! every point. A small, bright emitter (the office's 60 W bulb: 3% of the power, 528 triangles)
-//! is then rarely chosen where it dominates, and its rare samples are weighted by the inverse of
-//! that 3%: the fireflies of `paper-notes.md`, section "Accuracy on the real scenes". Weighing by
-//! distance chooses the bulb near the bulb and the troffers near the troffers. A weight is zero only
+//! Choosing by power alone would give each emitter the same share at every point. A small,
+//! bright emitter (the office's 60 W bulb: 3% of the power, 528 triangles) would then rarely be
+//! chosen where it dominates, and its rare samples weighted by the inverse of that 3%: fireflies.
+//! Weighing by distance chooses the bulb near the bulb and the troffers near the troffers. A weight is zero only
 //! where no point of the emitter can light `x`, so the estimate stays unbiased
 //! (`direct_irradiance_matches_the_form_factor_of_a_square` and
 //! `choice_by_distance_is_unbiased_between_two_emitters` in the integrator's tests).
@@ -21,8 +20,8 @@
 //! choice falls back to power alone.
 //!
 //! **Near emitters by solid angle.** Next to an emitter ([`NEAR`]) a point uniform in its area
-//! carries `1 / dist^2` that varies by more than 4x over it: one sample is noisy, and Sponza's
-//! hemisphere hits under its ceiling panels needed 16 of them. An emitter of at most
+//! carries `1 / dist^2` that varies by more than 4x over it: one sample is noisy, and many are
+//! needed for a quiet estimate. An emitter of at most
 //! [`SOLID_ANGLE_MAX`] triangles is sampled by solid angle there instead: a triangle with
 //! probability proportional to the solid angle it subtends (Van Oosterom and Strackee's formula,
 //! in f32 where the emitter and the chosen triangle subtend at least [`F32_MIN`], else in f64;
@@ -35,6 +34,7 @@
 //! density that says so: the estimate stays unbiased either way. Emitters of more triangles (the
 //! office's bulb, 528) keep area sampling, and [`LightChoice::near`] tells the integrator so.
 
+use super::colour::luminance;
 use glam::Vec3;
 use std::collections::HashMap;
 
@@ -198,10 +198,6 @@ macro_rules! spherical_triangle {
 
 spherical_triangle!(solid_angle, arvo, glam::DVec3, f64);
 spherical_triangle!(solid_angle_f32, arvo_f32, Vec3, f32);
-
-fn luminance(c: Vec3) -> f32 {
-    super::scene::luminance(c)
-}
 
 /// The solid-angle sampler of [`Lights::sample_solid_angle`] in one float width (`$v`, `$f`,
 /// with that width's [`spherical_triangle`] routines): `Err(TooNarrow)` when the emitter or the

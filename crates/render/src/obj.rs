@@ -12,8 +12,10 @@
 //! is wrong, which a user fixing an export needs.
 
 use super::camera::{Camera, Orbit};
+use super::colour::srgb_to_linear;
 use super::scene::{Material, MaterialId, Scene, SceneBuilder, SceneError};
 use glam::Vec3;
+use std::borrow::Cow;
 use std::collections::HashMap;
 use std::fmt;
 use std::path::{Path, PathBuf};
@@ -68,20 +70,37 @@ fn err(file: &Path, line: Option<usize>, message: impl Into<String>) -> ObjError
     }
 }
 
-/// The text of `file`: one of the built-in scene files compiled into the binary (paths under
-/// [`super::scenes::BUILT_IN`]) or a file on disk, gunzipped when its name ends in `.gz`.
-fn read(file: &Path) -> Result<String, ObjError> {
-    let bytes = match super::scenes::built_in_file(file) {
-        Some(bytes) => bytes.to_vec(),
-        None => std::fs::read(file).map_err(|e| err(file, None, format!("cannot read: {e}")))?,
-    };
+/// Where the reader gets the bytes of the files it reads (the OBJ file, the MTL files it names,
+/// their textures): the file system for a user's scene ([`FileSystem`]), or files compiled into
+/// the binary for the built-in scenes (`scenes::Embedded`). Passing the source in keeps the
+/// reader ignorant of where built-in files live.
+pub trait FileResolver {
+    /// The bytes of the file at `path`, or why they cannot be had.
+    fn read(&self, path: &Path) -> std::io::Result<Cow<'static, [u8]>>;
+}
+
+/// The file system: where a user's OBJ, MTL and texture files are read from.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct FileSystem;
+
+impl FileResolver for FileSystem {
+    fn read(&self, path: &Path) -> std::io::Result<Cow<'static, [u8]>> {
+        std::fs::read(path).map(Cow::Owned)
+    }
+}
+
+/// The text of `file` from `files`, gunzipped when its name ends in `.gz`.
+fn read(file: &Path, files: &dyn FileResolver) -> Result<String, ObjError> {
+    let bytes = files
+        .read(file)
+        .map_err(|e| err(file, None, format!("cannot read: {e}")))?;
     let bytes = if file.extension().is_some_and(|e| e == "gz") {
         let mut out = Vec::new();
         std::io::Read::read_to_end(&mut flate2::read::GzDecoder::new(&bytes[..]), &mut out)
             .map_err(|e| err(file, None, format!("cannot gunzip: {e}")))?;
         out
     } else {
-        bytes
+        bytes.into_owned()
     };
     String::from_utf8(bytes).map_err(|e| {
         err(
@@ -331,34 +350,35 @@ fn texture_name(key: &str, words: &[&str], file: &Path, line: usize) -> Result<S
     Ok(words[at..].join(" "))
 }
 
-/// The texture file `name` of an MTL file in `dir`. Exports from Windows may separate folders
-/// with `\`: when the name as written is not there, it is tried with `/`.
-fn texture_path(dir: &Path, name: &str) -> PathBuf {
+/// The texture file `name` of an MTL file in `dir`, read from `files`: its path and its bytes.
+/// Exports from Windows may separate folders with `\\`: when the name as written cannot be read,
+/// it is tried with `/`.
+fn read_texture(
+    files: &dyn FileResolver,
+    dir: &Path,
+    name: &str,
+) -> (PathBuf, std::io::Result<Cow<'static, [u8]>>) {
     let path = dir.join(name);
-    if !path.exists() && name.contains('\\') {
-        dir.join(name.replace('\\', "/"))
-    } else {
-        path
+    match files.read(&path) {
+        Err(_) if name.contains('\\') => {
+            let other = dir.join(name.replace('\\', "/"));
+            let bytes = files.read(&other);
+            (other, bytes)
+        }
+        bytes => (path, bytes),
     }
 }
 
-/// The linear value of an sRGB-encoded channel in [0, 1].
-fn srgb_to_linear(s: f32) -> f32 {
-    let s = s.clamp(0.0, 1.0);
-    if s <= 0.040_45 {
-        s / 12.92
-    } else {
-        ((s + 0.055) / 1.055).powf(2.4)
+/// The mean colour of the texture `bytes` read from `path`: every pixel linearised from sRGB,
+/// then averaged (the mean of the linear values, not the linearised mean of the encoded ones);
+/// alpha is ignored. PNG, JPEG and TGA decode (the `image` features this crate enables), told
+/// apart by the name's extension or the bytes. The error says why the texture cannot be used.
+fn texture_mean(path: &Path, bytes: &[u8]) -> Result<Vec3, String> {
+    let mut reader = image::ImageReader::new(std::io::Cursor::new(bytes));
+    if let Ok(format) = image::ImageFormat::from_path(path) {
+        reader.set_format(format);
     }
-}
-
-/// The mean colour of the texture at `path`: every pixel linearised from sRGB, then averaged
-/// (the mean of the linear values, not the linearised mean of the encoded ones); alpha is
-/// ignored. PNG, JPEG and TGA decode (the `image` features this crate enables). The error says
-/// why the texture cannot be used.
-fn texture_mean(path: &Path) -> Result<Vec3, String> {
-    let image = image::ImageReader::open(path)
-        .map_err(|e| format!("cannot be read: {e}"))?
+    let image = reader
         .with_guessed_format()
         .map_err(|e| format!("cannot be read: {e}"))?
         .decode()
@@ -392,6 +412,7 @@ struct Pending {
 fn finish_material(
     p: Pending,
     file: &Path,
+    files: &dyn FileResolver,
     out: &mut HashMap<String, Material>,
     textures: &mut HashMap<PathBuf, Option<Vec3>>,
     warnings: &mut Vec<ObjWarning>,
@@ -399,10 +420,13 @@ fn finish_material(
     let Some((name, line)) = p.texture.filter(|_| !p.kd) else {
         return;
     };
-    let path = texture_path(file.parent().unwrap_or(Path::new(".")), &name);
-    let mean = *textures
-        .entry(path.clone())
-        .or_insert_with(|| match texture_mean(&path) {
+    let dir = file.parent().unwrap_or(Path::new("."));
+    let mean = *textures.entry(dir.join(&name)).or_insert_with(|| {
+        let (path, bytes) = read_texture(files, dir, &name);
+        let mean = bytes
+            .map_err(|e| format!("cannot be read: {e}"))
+            .and_then(|bytes| texture_mean(&path, &bytes));
+        match mean {
             Ok(c) => Some(c),
             Err(why) => {
                 warnings.push(ObjWarning {
@@ -418,7 +442,8 @@ fn finish_material(
                 });
                 None
             }
-        });
+        }
+    });
     if let Some(c) = mean {
         let m = out.get_mut(&p.name).expect("inserted at newmtl");
         m.albedo = c.min(Vec3::splat(0.95));
@@ -429,10 +454,11 @@ fn finish_material(
 /// `warnings`.
 fn read_mtl(
     file: &Path,
+    files: &dyn FileResolver,
     out: &mut HashMap<String, Material>,
     warnings: &mut Vec<ObjWarning>,
 ) -> Result<(), ObjError> {
-    let text = read(file)?;
+    let text = read(file, files)?;
     let mut skipped = Skipped::new(file);
     let mut textures = HashMap::new();
     let mut current: Option<Pending> = None;
@@ -450,7 +476,7 @@ fn read_mtl(
                     return Err(err(file, Some(line), "`newmtl` without a name"));
                 }
                 if let Some(p) = current.take() {
-                    finish_material(p, file, out, &mut textures, warnings);
+                    finish_material(p, file, files, out, &mut textures, warnings);
                 }
                 out.insert(name.clone(), Material::diffuse(Vec3::splat(0.7)));
                 current = Some(Pending {
@@ -492,7 +518,7 @@ fn read_mtl(
         }
     }
     if let Some(p) = current.take() {
-        finish_material(p, file, out, &mut textures, warnings);
+        finish_material(p, file, files, out, &mut textures, warnings);
     }
     skipped.warn(warnings);
     Ok(())
@@ -549,8 +575,12 @@ fn corner(word: &str, count: usize, file: &Path, line: usize) -> Result<usize, O
 
 /// Reads an OBJ file (and the MTL files it names, relative to it) into a scene builder, adding
 /// the warnings of both to `warnings`.
-fn read_obj(file: &Path, warnings: &mut Vec<ObjWarning>) -> Result<SceneBuilder, ObjError> {
-    let text = read(file)?;
+fn read_obj(
+    file: &Path,
+    files: &dyn FileResolver,
+    warnings: &mut Vec<ObjWarning>,
+) -> Result<SceneBuilder, ObjError> {
+    let text = read(file, files)?;
     let dir = file.parent().unwrap_or(Path::new("."));
     let mut b = SceneBuilder::new();
     let default = b.material(Material::diffuse(Vec3::splat(0.7)));
@@ -595,7 +625,7 @@ fn read_obj(file: &Path, warnings: &mut Vec<ObjWarning>) -> Result<SceneBuilder,
                     return Err(err(file, Some(line), "`mtllib` without a file name"));
                 }
                 for name in names {
-                    read_mtl(&dir.join(name), &mut library, warnings).map_err(|mut e| {
+                    read_mtl(&dir.join(name), files, &mut library, warnings).map_err(|mut e| {
                         e.message = format!("{} (named by {}:{line})", e.message, file.display());
                         e
                     })?;
@@ -642,11 +672,17 @@ fn print(warnings: &[ObjWarning]) {
     }
 }
 
-/// Loads an OBJ file (and the MTL files it names, relative to it) into a scene builder,
-/// printing its [`ObjWarning`]s to standard error.
+/// Loads an OBJ file (and the MTL files it names, relative to it) from the file system into a
+/// scene builder, printing its [`ObjWarning`]s to standard error.
 pub fn load_builder(file: &Path) -> Result<SceneBuilder, ObjError> {
+    load_builder_from(file, &FileSystem)
+}
+
+/// [`load_builder`], reading the OBJ file and the files it names from `files`: the built-in
+/// scenes pass the resolver of the files compiled into the binary.
+pub fn load_builder_from(file: &Path, files: &dyn FileResolver) -> Result<SceneBuilder, ObjError> {
     let mut warnings = Vec::new();
-    let b = read_obj(file, &mut warnings);
+    let b = read_obj(file, files, &mut warnings);
     print(&warnings);
     b
 }
@@ -666,7 +702,7 @@ pub fn load(file: &Path) -> Result<Scene, ObjError> {
 /// them, in the order met: an MTL file's at its `mtllib` line, the OBJ file's own at the end.
 pub fn load_with_warnings(file: &Path) -> Result<(Scene, Vec<ObjWarning>), ObjError> {
     let mut warnings = Vec::new();
-    let mut b = read_obj(file, &mut warnings)?;
+    let mut b = read_obj(file, &FileSystem, &mut warnings)?;
     let (lo, hi) = b.bounds();
     let size = hi - lo;
     let centre = (lo + hi) * 0.5;
@@ -735,7 +771,7 @@ mod tests {
     ) -> Result<(HashMap<String, Material>, Vec<ObjWarning>), ObjError> {
         std::fs::write(dir.join(name), mtl).unwrap();
         let (mut out, mut warnings) = (HashMap::new(), Vec::new());
-        read_mtl(&dir.join(name), &mut out, &mut warnings)?;
+        read_mtl(&dir.join(name), &FileSystem, &mut out, &mut warnings)?;
         Ok((out, warnings))
     }
 
@@ -909,13 +945,13 @@ mod tests {
         let dir = folder("formats");
         let tga = dir.join("t.tga");
         image::save_buffer(&tga, &TEXELS.concat(), 2, 2, image::ColorType::Rgb8).unwrap();
-        let got = texture_mean(&tga).unwrap();
+        let got = texture_mean(&tga, &std::fs::read(&tga).unwrap()).unwrap();
         assert!((got - texels_mean()).abs().max_element() < 1e-5, "{got}");
         // A uniform JPEG (lossy, so only near its colour).
         let jpg = dir.join("u.jpg");
         let bytes: Vec<u8> = [200u8, 100, 50].repeat(64);
         image::save_buffer(&jpg, &bytes, 8, 8, image::ColorType::Rgb8).unwrap();
-        let got = texture_mean(&jpg).unwrap();
+        let got = texture_mean(&jpg, &std::fs::read(&jpg).unwrap()).unwrap();
         let want = Vec3::from_array([200u8, 100, 50].map(|c| srgb_to_linear(f32::from(c) / 255.0)));
         assert!((got - want).abs().max_element() < 0.02, "{got} != {want}");
         std::fs::remove_dir_all(&dir).ok();

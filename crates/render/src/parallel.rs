@@ -7,14 +7,13 @@ use super::film::Image;
 use super::integrator::{PixelIntegrator, SampleCounters};
 use super::scene::Scene;
 use super::stats::FrameStats;
+use super::work::{shade, Blocks, Counter, GridRows, Tiles};
 use super::{Camera, RenderSettings};
-use wfic::cache::{CacheConfig, CacheHandle, CacheJob, IrradianceCache, NoCache, Scheme};
-use wfic::ic::{Selection, WorkerId};
-use wfic::sync::{AtomicUsize, Ordering};
-use glam::Vec3;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use std::io::IsTerminal;
 use std::time::Instant;
+use wfic::cache::{CacheConfig, CacheHandle, CacheJob, IrradianceCache, NoCache, Scheme};
+use wfic::ic::{Selection, WorkerId};
 
 /// Where a frame's workers run.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -46,41 +45,6 @@ pub struct FrameResult {
     pub stats: FrameStats,
 }
 
-/// The frame's tiles: square blocks of `tile_size` pixels, row by row.
-pub(super) struct Tiles {
-    size: u32,
-    width: u32,
-    height: u32,
-    across: u32,
-    pub(super) count: usize,
-}
-
-impl Tiles {
-    pub(super) fn new(settings: &RenderSettings) -> Self {
-        let size = settings.tile_size.max(1);
-        let across = settings.width.div_ceil(size);
-        Self {
-            size,
-            width: settings.width,
-            height: settings.height,
-            across,
-            count: (across * settings.height.div_ceil(size)) as usize,
-        }
-    }
-
-    /// The pixel rectangle `(x0, y0, x1, y1)` of tile `tile`.
-    pub(super) fn rect(&self, tile: usize) -> (u32, u32, u32, u32) {
-        let (tx, ty) = (tile as u32 % self.across, tile as u32 / self.across);
-        let (x0, y0) = (tx * self.size, ty * self.size);
-        (
-            x0,
-            y0,
-            (x0 + self.size).min(self.width),
-            (y0 + self.size).min(self.height),
-        )
-    }
-}
-
 fn progress_bar(tiles: usize, quiet: bool, label: &str) -> ProgressBar {
     if quiet || !std::io::stderr().is_terminal() {
         return ProgressBar::hidden();
@@ -93,50 +57,6 @@ fn progress_bar(tiles: usize, quiet: bool, label: &str) -> ProgressBar {
     }
     bar.set_message(label.to_owned());
     bar
-}
-
-/// What a worker hands back: its tiles' pixels and its counters.
-struct WorkerOutput {
-    tiles: Vec<(usize, Vec<Vec3>)>,
-    counters: SampleCounters,
-    /// From the worker's first look at the queue to finding it empty.
-    busy: std::time::Duration,
-}
-
-/// Takes tiles from `next_tile` until none is left, shading each pixel through `handle`.
-fn tile_loop<H: CacheHandle>(
-    integrator: &PixelIntegrator<'_>,
-    tiles: &Tiles,
-    next_tile: &AtomicUsize,
-    bar: &ProgressBar,
-    handle: &mut H,
-) -> WorkerOutput {
-    let start = Instant::now();
-    let mut out = WorkerOutput {
-        tiles: Vec::new(),
-        counters: SampleCounters::default(),
-        busy: std::time::Duration::ZERO,
-    };
-    loop {
-        // Relaxed: the counter only has to hand each tile to exactly one worker, which the
-        // atomicity of `fetch_add` guarantees on its own; no other memory is published through
-        // it (the tiles' pixels come back through the join).
-        let tile = next_tile.fetch_add(1, Ordering::Relaxed);
-        if tile >= tiles.count {
-            break;
-        }
-        let (x0, y0, x1, y1) = tiles.rect(tile);
-        let mut pixels = Vec::with_capacity(((x1 - x0) * (y1 - y0)) as usize);
-        for y in y0..y1 {
-            for x in x0..x1 {
-                pixels.push(integrator.pixel(x, y, handle, &mut out.counters));
-            }
-        }
-        out.tiles.push((tile, pixels));
-        bar.inc(1);
-    }
-    out.busy = start.elapsed();
-    out
 }
 
 /// Renders one frame of `scene` seen by `camera` with `threads` workers (0 counts as 1) sharing
@@ -175,17 +95,17 @@ pub fn render_frame_removing<C: IrradianceCache>(
     let integrator = PixelIntegrator::new(scene, camera, settings, cache.config().accuracy());
     let tiles = Tiles::new(settings);
     let bar = progress_bar(
-        tiles.count,
+        tiles.count(),
         settings.quiet,
         &format!("{} {scheme}", scene.name()),
     );
-    let next_tile = AtomicUsize::new(0);
+    let source = Counter::new(tiles.count());
     let frame = cache.frame();
     let work = |handle: &mut C::Handle<'_>, worker: WorkerId| {
         if let Some(selection) = removal.filter(|_| worker == WorkerId::new(0)) {
             handle.remove(selection);
         }
-        tile_loop(&integrator, &tiles, &next_tile, &bar, handle)
+        shade(&integrator, &tiles, &source, handle, |_| bar.inc(1))
     };
     let outputs = match settings.pool {
         Pool::Scoped => frame.run(threads, work),
@@ -205,13 +125,7 @@ pub fn render_frame_removing<C: IrradianceCache>(
     let mut counters = SampleCounters::default();
     let worker_seconds: Vec<f64> = outputs.iter().map(|o| o.busy.as_secs_f64()).collect();
     for out in outputs {
-        for (tile, pixels) in out.tiles {
-            let (x0, y0, x1, _) = tiles.rect(tile);
-            let tw = x1 - x0;
-            for (i, p) in pixels.into_iter().enumerate() {
-                image.set(x0 + i as u32 % tw, y0 + i as u32 / tw, p);
-            }
-        }
+        out.paint(&tiles, &mut image);
         counters += out.counters;
     }
     let seconds = start.elapsed().as_secs_f64();
@@ -294,32 +208,18 @@ pub fn render_reference_grid(
     stride: u32,
 ) -> (Image, f64) {
     let start = Instant::now();
-    let stride = stride.max(1);
     let mut cache = NoCache::new(config);
     let integrator = PixelIntegrator::new(scene, camera, settings, config.accuracy());
-    let rows: Vec<u32> = (stride / 2..settings.height)
-        .step_by(stride as usize)
-        .collect();
-    let next_row = AtomicUsize::new(0);
+    let rows = GridRows::new(settings, stride);
+    let source = Counter::new(rows.count());
     let frame = cache.frame();
     let outputs = frame.run(threads.max(1), |handle, _| {
-        let mut counters = SampleCounters::default();
-        let mut out = Vec::new();
-        loop {
-            // Relaxed: as in `tile_loop`, the counter only hands each row to one worker; the
-            // pixels come back through the join.
-            let i = next_row.fetch_add(1, Ordering::Relaxed);
-            let Some(&y) = rows.get(i) else { break };
-            for x in (stride / 2..settings.width).step_by(stride as usize) {
-                out.push((x, y, integrator.pixel(x, y, handle, &mut counters)));
-            }
-        }
-        out
+        shade(&integrator, &rows, &source, handle, |_| ())
     });
     frame.close();
     let mut image = Image::new(settings.width, settings.height);
-    for (x, y, p) in outputs.into_iter().flatten() {
-        image.set(x, y, p);
+    for out in outputs {
+        out.paint(&rows, &mut image);
     }
     (image, start.elapsed().as_secs_f64())
 }

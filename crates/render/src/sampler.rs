@@ -2,7 +2,8 @@
 //!
 //! Every pixel's numbers depend only on the frame seed, the pixel's coordinates and a stream
 //! number, never on the thread that renders it or the order tiles are taken in, so the same
-//! settings give the same samples under every scheme and thread count (STYLE.md, point 10).
+//! settings give the same samples under every scheme and thread count: schemes are compared on
+//! the same samples, and a render can be reproduced.
 
 /// What a stream of random numbers is used for; each gets its own independent sequence.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -4,6 +4,9 @@
 //! ([`super::flat`]).
 
 use super::camera::{Camera, Orbit};
+/// Rec. 709 luminance, here because scenes and their users weigh colours by it (defined in
+/// [`super::colour`], which the lights use too).
+pub use super::colour::luminance;
 use super::flat::{FlatTriangles, Traversal};
 use super::lights::{Light, LightChoice, LightSample, Lights};
 use glam::{Vec3, Vec3A};
@@ -152,10 +155,9 @@ impl SceneBuilder {
             return Err(SceneError::Empty(name.to_owned()));
         }
         // obvhs's slowest build (large triangles split into several boxes, every node considered
-        // for reinsertion) traces the real scenes' frames 2-7% faster than its medium build
-        // (Sponza 3.5%, the conference room 6.5%, the office 2%) for about a second more of
-        // loading on the conference room's 262,446 triangles. A scene traversed flat keeps the
-        // medium build: its splits would repeat triangles in the flat list.
+        // for reinsertion) traces the real scenes' frames a few percent faster than its medium
+        // build, for about a second more of loading on the largest scene. A scene traversed flat
+        // keeps the medium build: its splits would repeat triangles in the flat list.
         let params = if Traversal::for_triangles(triangles.len()) == Traversal::Flat {
             BvhBuildParams::medium_build()
         } else {
@@ -222,11 +224,6 @@ impl SceneBuilder {
             orbit,
         })
     }
-}
-
-/// Rec. 709 luminance.
-pub fn luminance(c: Vec3) -> f32 {
-    c.dot(Vec3::new(0.2126, 0.7152, 0.0722))
 }
 
 #[derive(Clone, Copy, Debug)]

@@ -7,6 +7,7 @@
 //! count and conversion command; [`INFO`] says which scenes are real ([`SceneSource`]).
 
 use super::camera::{Camera, Orbit};
+use super::obj;
 use super::scene::{Material, MaterialId, Scene, SceneBuilder, SceneError};
 use glam::Vec3;
 
@@ -112,6 +113,21 @@ pub fn built_in_file(path: &std::path::Path) -> Option<&'static [u8]> {
         .map(|&(_, bytes)| bytes)
 }
 
+/// The built-in scene files as the OBJ reader sees them ([`obj::FileResolver`]): the files
+/// compiled into the binary, under [`BUILT_IN`]; any other path is not found.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Embedded;
+
+impl obj::FileResolver for Embedded {
+    fn read(&self, path: &std::path::Path) -> std::io::Result<std::borrow::Cow<'static, [u8]>> {
+        built_in_file(path)
+            .map(std::borrow::Cow::Borrowed)
+            .ok_or_else(|| {
+                std::io::Error::new(std::io::ErrorKind::NotFound, "not a built-in scene file")
+            })
+    }
+}
+
 /// The built-in scene called `name`, or `None` for an unknown name.
 pub fn by_name(name: &str) -> Option<Result<Scene, SceneError>> {
     Some(match name {
@@ -183,6 +199,146 @@ pub fn cornell_moving(t: f32) -> Result<Scene, SceneError> {
     cornell_with_short_block_at(CORNELL_SLIDE * t, "cornell-moving")
 }
 
+/// A quadrilateral of the published Cornell box: its corners in millimetres, in the published
+/// order (which winds it to face into the room).
+type Quad = [[f32; 3]; 4];
+
+/// The Cornell box's surfaces.
+#[derive(Clone, Copy)]
+enum Surface {
+    White,
+    Red,
+    Green,
+    Light,
+}
+
+/// The room: floor, ceiling, back wall, right (green) and left (red) walls, and the light, 0.1 mm
+/// below the ceiling (as usually modelled), wound to face down.
+const ROOM: [(Quad, Surface); 6] = [
+    (
+        [
+            [552.8, 0.0, 0.0],
+            [0.0, 0.0, 0.0],
+            [0.0, 0.0, 559.2],
+            [549.6, 0.0, 559.2],
+        ],
+        Surface::White,
+    ),
+    (
+        [
+            [556.0, 548.8, 0.0],
+            [556.0, 548.8, 559.2],
+            [0.0, 548.8, 559.2],
+            [0.0, 548.8, 0.0],
+        ],
+        Surface::White,
+    ),
+    (
+        [
+            [549.6, 0.0, 559.2],
+            [0.0, 0.0, 559.2],
+            [0.0, 548.8, 559.2],
+            [556.0, 548.8, 559.2],
+        ],
+        Surface::White,
+    ),
+    (
+        [
+            [0.0, 0.0, 559.2],
+            [0.0, 0.0, 0.0],
+            [0.0, 548.8, 0.0],
+            [0.0, 548.8, 559.2],
+        ],
+        Surface::Green,
+    ),
+    (
+        [
+            [552.8, 0.0, 0.0],
+            [549.6, 0.0, 559.2],
+            [556.0, 548.8, 559.2],
+            [556.0, 548.8, 0.0],
+        ],
+        Surface::Red,
+    ),
+    (
+        [
+            [343.0, 548.7, 227.0],
+            [343.0, 548.7, 332.0],
+            [213.0, 548.7, 332.0],
+            [213.0, 548.7, 227.0],
+        ],
+        Surface::Light,
+    ),
+];
+
+/// The short block's five faces (its top first), where the published box has it.
+const SHORT_BLOCK: [Quad; 5] = [
+    [
+        [130.0, 165.0, 65.0],
+        [82.0, 165.0, 225.0],
+        [240.0, 165.0, 272.0],
+        [290.0, 165.0, 114.0],
+    ],
+    [
+        [290.0, 0.0, 114.0],
+        [290.0, 165.0, 114.0],
+        [240.0, 165.0, 272.0],
+        [240.0, 0.0, 272.0],
+    ],
+    [
+        [130.0, 0.0, 65.0],
+        [130.0, 165.0, 65.0],
+        [290.0, 165.0, 114.0],
+        [290.0, 0.0, 114.0],
+    ],
+    [
+        [82.0, 0.0, 225.0],
+        [82.0, 165.0, 225.0],
+        [130.0, 165.0, 65.0],
+        [130.0, 0.0, 65.0],
+    ],
+    [
+        [240.0, 0.0, 272.0],
+        [240.0, 165.0, 272.0],
+        [82.0, 165.0, 225.0],
+        [82.0, 0.0, 225.0],
+    ],
+];
+
+/// The tall block's five faces (its top first).
+const TALL_BLOCK: [Quad; 5] = [
+    [
+        [423.0, 330.0, 247.0],
+        [265.0, 330.0, 296.0],
+        [314.0, 330.0, 456.0],
+        [472.0, 330.0, 406.0],
+    ],
+    [
+        [423.0, 0.0, 247.0],
+        [423.0, 330.0, 247.0],
+        [472.0, 330.0, 406.0],
+        [472.0, 0.0, 406.0],
+    ],
+    [
+        [472.0, 0.0, 406.0],
+        [472.0, 330.0, 406.0],
+        [314.0, 330.0, 456.0],
+        [314.0, 0.0, 456.0],
+    ],
+    [
+        [314.0, 0.0, 456.0],
+        [314.0, 330.0, 456.0],
+        [265.0, 330.0, 296.0],
+        [265.0, 0.0, 296.0],
+    ],
+    [
+        [265.0, 0.0, 296.0],
+        [265.0, 330.0, 296.0],
+        [423.0, 330.0, 247.0],
+        [423.0, 0.0, 247.0],
+    ],
+];
+
 /// The Cornell box with its short block moved by `offset` (metres), named `name`.
 fn cornell_with_short_block_at(offset: Vec3, name: &str) -> Result<Scene, SceneError> {
     let mut b = SceneBuilder::new();
@@ -191,141 +347,24 @@ fn cornell_with_short_block_at(offset: Vec3, name: &str) -> Result<Scene, SceneE
     let green = b.material(Material::diffuse(v(0.14, 0.45, 0.091)));
     let light = b.material(Material::light(v(17.0, 12.0, 4.0)));
     let mm = |x: f32, y: f32, z: f32| v(x, y, z) * 0.001;
-    let quad = |b: &mut SceneBuilder, q: [[f32; 3]; 4], m: MaterialId| {
+    let quad = |b: &mut SceneBuilder, q: Quad, m: MaterialId| {
         let p = q.map(|[x, y, z]| mm(x, y, z));
         b.quad(p[0], p[1], p[2], p[3], m);
     };
-    // Floor, ceiling, back wall, right (green) and left (red) walls.
-    quad(
-        &mut b,
-        [
-            [552.8, 0.0, 0.0],
-            [0.0, 0.0, 0.0],
-            [0.0, 0.0, 559.2],
-            [549.6, 0.0, 559.2],
-        ],
-        white,
-    );
-    quad(
-        &mut b,
-        [
-            [556.0, 548.8, 0.0],
-            [556.0, 548.8, 559.2],
-            [0.0, 548.8, 559.2],
-            [0.0, 548.8, 0.0],
-        ],
-        white,
-    );
-    quad(
-        &mut b,
-        [
-            [549.6, 0.0, 559.2],
-            [0.0, 0.0, 559.2],
-            [0.0, 548.8, 559.2],
-            [556.0, 548.8, 559.2],
-        ],
-        white,
-    );
-    quad(
-        &mut b,
-        [
-            [0.0, 0.0, 559.2],
-            [0.0, 0.0, 0.0],
-            [0.0, 548.8, 0.0],
-            [0.0, 548.8, 559.2],
-        ],
-        green,
-    );
-    quad(
-        &mut b,
-        [
-            [552.8, 0.0, 0.0],
-            [549.6, 0.0, 559.2],
-            [556.0, 548.8, 559.2],
-            [556.0, 548.8, 0.0],
-        ],
-        red,
-    );
-    // The light, 0.1 mm below the ceiling (as usually modelled), wound to face down.
-    quad(
-        &mut b,
-        [
-            [343.0, 548.7, 227.0],
-            [343.0, 548.7, 332.0],
-            [213.0, 548.7, 332.0],
-            [213.0, 548.7, 227.0],
-        ],
-        light,
-    );
-    // Short block.
-    for q in [
-        [
-            [130.0, 165.0, 65.0],
-            [82.0, 165.0, 225.0],
-            [240.0, 165.0, 272.0],
-            [290.0, 165.0, 114.0],
-        ],
-        [
-            [290.0, 0.0, 114.0],
-            [290.0, 165.0, 114.0],
-            [240.0, 165.0, 272.0],
-            [240.0, 0.0, 272.0],
-        ],
-        [
-            [130.0, 0.0, 65.0],
-            [130.0, 165.0, 65.0],
-            [290.0, 165.0, 114.0],
-            [290.0, 0.0, 114.0],
-        ],
-        [
-            [82.0, 0.0, 225.0],
-            [82.0, 165.0, 225.0],
-            [130.0, 165.0, 65.0],
-            [130.0, 0.0, 65.0],
-        ],
-        [
-            [240.0, 0.0, 272.0],
-            [240.0, 165.0, 272.0],
-            [82.0, 165.0, 225.0],
-            [82.0, 0.0, 225.0],
-        ],
-    ] {
+    for (q, surface) in ROOM {
+        let m = match surface {
+            Surface::White => white,
+            Surface::Red => red,
+            Surface::Green => green,
+            Surface::Light => light,
+        };
+        quad(&mut b, q, m);
+    }
+    for q in SHORT_BLOCK {
         let p = q.map(|[x, y, z]| mm(x, y, z) + offset);
         b.quad(p[0], p[1], p[2], p[3], white);
     }
-    // Tall block.
-    for q in [
-        [
-            [423.0, 330.0, 247.0],
-            [265.0, 330.0, 296.0],
-            [314.0, 330.0, 456.0],
-            [472.0, 330.0, 406.0],
-        ],
-        [
-            [423.0, 0.0, 247.0],
-            [423.0, 330.0, 247.0],
-            [472.0, 330.0, 406.0],
-            [472.0, 0.0, 406.0],
-        ],
-        [
-            [472.0, 0.0, 406.0],
-            [472.0, 330.0, 406.0],
-            [314.0, 330.0, 456.0],
-            [314.0, 0.0, 456.0],
-        ],
-        [
-            [314.0, 0.0, 456.0],
-            [314.0, 330.0, 456.0],
-            [265.0, 330.0, 296.0],
-            [265.0, 0.0, 296.0],
-        ],
-        [
-            [265.0, 0.0, 296.0],
-            [265.0, 330.0, 296.0],
-            [423.0, 330.0, 247.0],
-            [423.0, 0.0, 247.0],
-        ],
-    ] {
+    for q in TALL_BLOCK {
         quad(&mut b, q, white);
     }
     let camera = Camera::look_at(
@@ -351,7 +390,8 @@ fn cornell_with_short_block_at(offset: Vec3, name: &str) -> Result<Scene, SceneE
 /// Loads built-in file `file` (an `.obj.gz` and its MTL) with `camera` and `orbit`.
 fn real(name: &str, file: &str, camera: Camera, orbit: Orbit) -> Result<Scene, SceneError> {
     let path = std::path::Path::new(BUILT_IN).join(file);
-    let b = super::obj::load_builder(&path).map_err(|e| SceneError::Load(e.to_string()))?;
+    let b =
+        obj::load_builder_from(&path, &Embedded).map_err(|e| SceneError::Load(e.to_string()))?;
     b.build(name, camera, orbit)
 }
 

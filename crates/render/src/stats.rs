@@ -144,15 +144,14 @@ impl FrameStats {
         }
     }
 
-    /// The statistics as a pretty-printed JSON object, `scene` first; the ray counts appear as
-    /// `primary_rays`, `shadow_rays` and `hemisphere_rays`, with the derived
-    /// `hemisphere_rays_per_second`.
-    pub fn to_json(&self, scene: &str, source: &SceneSummary) -> String {
-        let json = StatsJson {
-            scene,
+    /// The statistics as the JSON file lays them out ([`StatsJson`]), for `scene` described by
+    /// `source`.
+    pub fn to_stats_json(&self, scene: &str, source: &SceneSummary) -> StatsJson {
+        StatsJson {
+            scene: scene.to_owned(),
             triangles: source.triangles,
-            scene_source: &source.source,
-            scheme: &self.scheme,
+            scene_source: source.source.clone(),
+            scheme: self.scheme.clone(),
             threads: self.threads,
             width: self.width,
             height: self.height,
@@ -173,44 +172,232 @@ impl FrameStats {
             hemisphere_rays: self.rays.hemisphere,
             hemisphere_seconds: self.hemisphere_seconds,
             hemisphere_rays_per_second: self.hemisphere_rays_per_second(),
-            worker_seconds: &self.worker_seconds,
+            worker_seconds: self.worker_seconds.clone(),
             idle_share: self.idle_share(),
-        };
-        let mut out = serde_json::to_string_pretty(&json).expect("statistics serialise");
-        out.push('\n');
-        out
+        }
+    }
+
+    /// The statistics as a pretty-printed JSON object ([`StatsJson`], `scene` first), as
+    /// `wfic render --stats` writes them.
+    pub fn to_json(&self, scene: &str, source: &SceneSummary) -> String {
+        self.to_stats_json(scene, source).to_json()
     }
 }
 
-/// The JSON layout of [`FrameStats::to_json`].
-#[derive(serde::Serialize)]
-struct StatsJson<'a> {
-    scene: &'a str,
-    triangles: usize,
-    scene_source: &'a str,
-    scheme: &'a str,
-    threads: usize,
-    width: u32,
-    height: u32,
-    seconds: f64,
-    ic_samples: u64,
-    lookups: u64,
-    hits: u64,
-    shared_hits: u64,
-    sharing: f64,
-    lock_wait_seconds: f64,
-    merge_seconds: f64,
-    discarded: u64,
-    stored: u64,
-    rejected: u64,
-    cache_records: usize,
-    primary_rays: u64,
-    shadow_rays: u64,
-    hemisphere_rays: u64,
-    hemisphere_seconds: f64,
-    hemisphere_rays_per_second: f64,
-    worker_seconds: &'a [f64],
-    idle_share: f64,
+/// A frame's statistics as `wfic render --stats` writes them and as readers parse them back:
+/// the scene, then [`FrameStats`]' fields, the ray counts as `primary_rays`, `shadow_rays` and
+/// `hemisphere_rays`, and the derived `hemisphere_rays_per_second` and `idle_share`.
+/// ([`FrameStats::removed`] is not written.)
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct StatsJson {
+    /// The scene's name.
+    pub scene: String,
+    /// Its triangles ([`SceneSummary::triangles`]).
+    pub triangles: usize,
+    /// Where it comes from ([`SceneSummary::source`]).
+    pub scene_source: String,
+    /// [`FrameStats::scheme`].
+    pub scheme: String,
+    /// [`FrameStats::threads`].
+    pub threads: usize,
+    /// [`FrameStats::width`].
+    pub width: u32,
+    /// [`FrameStats::height`].
+    pub height: u32,
+    /// [`FrameStats::seconds`].
+    pub seconds: f64,
+    /// [`FrameStats::ic_samples`].
+    pub ic_samples: u64,
+    /// [`FrameStats::lookups`].
+    pub lookups: u64,
+    /// [`FrameStats::hits`].
+    pub hits: u64,
+    /// [`FrameStats::shared_hits`].
+    pub shared_hits: u64,
+    /// [`FrameStats::sharing`].
+    pub sharing: f64,
+    /// [`FrameStats::lock_wait_seconds`].
+    pub lock_wait_seconds: f64,
+    /// [`FrameStats::merge_seconds`].
+    pub merge_seconds: f64,
+    /// [`FrameStats::discarded`].
+    pub discarded: u64,
+    /// [`FrameStats::stored`].
+    pub stored: u64,
+    /// [`FrameStats::rejected`].
+    pub rejected: u64,
+    /// [`FrameStats::cache_records`].
+    pub cache_records: usize,
+    /// Primary rays ([`RayCounts::primary`]).
+    pub primary_rays: u64,
+    /// Shadow rays ([`RayCounts::shadow`]).
+    pub shadow_rays: u64,
+    /// Hemisphere rays ([`RayCounts::hemisphere`]).
+    pub hemisphere_rays: u64,
+    /// [`FrameStats::hemisphere_seconds`].
+    pub hemisphere_seconds: f64,
+    /// [`FrameStats::hemisphere_rays_per_second`].
+    pub hemisphere_rays_per_second: f64,
+    /// [`FrameStats::worker_seconds`].
+    pub worker_seconds: Vec<f64>,
+    /// [`FrameStats::idle_share`].
+    pub idle_share: f64,
+}
+
+impl StatsJson {
+    /// Pretty-printed JSON, with a final newline.
+    pub fn to_json(&self) -> String {
+        let mut out = serde_json::to_string_pretty(self).expect("statistics serialise");
+        out.push('\n');
+        out
+    }
+
+    /// Parses what [`StatsJson::to_json`] (or `wfic render --stats`) wrote.
+    ///
+    /// # Errors
+    /// When `text` is not such a JSON object.
+    pub fn from_json(text: &str) -> Result<Self, serde_json::Error> {
+        serde_json::from_str(text)
+    }
+}
+
+/// What one rank did in a distributed frame (`wfic render --distributed`).
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct RankStats {
+    /// The rank.
+    pub rank: u32,
+    /// Its worker threads.
+    pub threads: usize,
+    /// Tiles it rendered.
+    pub tiles: usize,
+    /// Irradiance estimates it computed (hemisphere samplings).
+    pub ic_samples: u64,
+    /// Records it computed and stored in its own cache.
+    pub records_computed: u64,
+    /// Records it sent (each to every other rank).
+    pub records_sent: u64,
+    /// Records it received from the other ranks.
+    pub records_received: u64,
+    /// Received records its cache stored.
+    pub records_inserted: u64,
+    /// Bytes it sent: its records' payloads, once per other rank.
+    pub bytes_sent: u64,
+    /// Bytes it received.
+    pub bytes_received: u64,
+    /// Exchange rounds.
+    pub rounds: u64,
+    /// Seconds its MPI thread spent in the rounds' two collectives (the state's allgather and
+    /// the records' allgatherv), waiting for the slowest rank included.
+    pub collective_seconds: f64,
+    /// Seconds its MPI thread spent inserting the others' records into its cache.
+    pub insert_seconds: f64,
+    /// Digest of the records it sent, in order (`distributed::WireRecord::digest`).
+    pub sent_digest: u64,
+    /// Per rank (by rank; its own entry 0): the digest of the records it received from that
+    /// rank, in order.
+    pub received_digests: Vec<u64>,
+    /// Records in its cache at the end.
+    pub cache_records: u64,
+    /// Seconds from the start of the frame to the end of its last round.
+    pub seconds: f64,
+}
+
+/// One frame of a distributed render, as rank 0 reports it.
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct DistributedFrameStats {
+    /// Every rank's statistics, by rank.
+    pub ranks: Vec<RankStats>,
+    /// Records computed over all ranks (the sum of [`RankStats::records_computed`]).
+    pub records_computed: u64,
+    /// Records computed where a record of another rank is also valid.
+    pub duplicates: u64,
+    /// Wall-clock seconds of the frame on rank 0 (agreement check to assembled image).
+    pub seconds: f64,
+}
+
+impl DistributedFrameStats {
+    /// A frame's statistics from its ranks': `records_computed` is their sum.
+    pub fn new(ranks: Vec<RankStats>, duplicates: u64, seconds: f64) -> Self {
+        Self {
+            records_computed: ranks.iter().map(|r| r.records_computed).sum(),
+            ranks,
+            duplicates,
+            seconds,
+        }
+    }
+}
+
+/// The frames of a distributed render as its statistics file holds them: one frame's fields at
+/// the top level, several under `frames`.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(untagged)]
+pub enum DistributedFrames {
+    /// Several frames (`--frames N`, N > 1), in order, under `frames`.
+    Many {
+        /// The frames, in order.
+        frames: Vec<DistributedFrameStats>,
+    },
+    /// One frame, its fields beside the render's.
+    One(DistributedFrameStats),
+}
+
+impl DistributedFrames {
+    /// `frames` as the file lays them out: [`DistributedFrames::One`] for exactly one frame.
+    pub fn new(mut frames: Vec<DistributedFrameStats>) -> Self {
+        match frames.len() {
+            1 => Self::One(frames.pop().expect("one frame")),
+            _ => Self::Many { frames },
+        }
+    }
+
+    /// The frames, in order, however they are laid out.
+    pub fn frames(&self) -> &[DistributedFrameStats] {
+        match self {
+            Self::Many { frames } => frames,
+            Self::One(frame) => std::slice::from_ref(frame),
+        }
+    }
+}
+
+/// The statistics of a distributed render (`wfic render --distributed --stats`): the render's
+/// scene, size and exchange settings, then its frames' statistics.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct DistributedStats {
+    /// The scene's name.
+    pub scene: String,
+    /// Its triangles.
+    pub triangles: usize,
+    /// Image width.
+    pub width: u32,
+    /// Image height.
+    pub height: u32,
+    /// A round starts as soon as a rank's outbox holds this many records.
+    pub batch_records: usize,
+    /// ... or this long (milliseconds) after the previous round.
+    pub batch_ms: u64,
+    /// Whether the ranks shared their records.
+    pub share: bool,
+    /// The frames.
+    #[serde(flatten)]
+    pub frames: DistributedFrames,
+}
+
+impl DistributedStats {
+    /// Pretty-printed JSON, with a final newline.
+    pub fn to_json(&self) -> String {
+        let mut out = serde_json::to_string_pretty(self).expect("statistics serialise");
+        out.push('\n');
+        out
+    }
+
+    /// Parses what [`DistributedStats::to_json`] (or `wfic render --distributed --stats`)
+    /// wrote.
+    ///
+    /// # Errors
+    /// When `text` is not such a JSON object.
+    pub fn from_json(text: &str) -> Result<Self, serde_json::Error> {
+        serde_json::from_str(text)
+    }
 }
 
 #[cfg(test)]
@@ -264,5 +451,158 @@ mod tests {
         // 0.75 s of the 2 x 0.5 s worker-time shaded.
         assert_eq!(json["idle_share"], 0.25);
         assert_eq!(json.as_object().unwrap().len(), 26);
+    }
+
+    fn rank(rank: u32) -> RankStats {
+        RankStats {
+            rank,
+            threads: 2,
+            tiles: 7 + rank as usize,
+            ic_samples: 300,
+            records_computed: 290 + u64::from(rank),
+            records_sent: 290,
+            records_received: 310,
+            records_inserted: 305,
+            bytes_sent: 33_640,
+            bytes_received: 35_960,
+            rounds: 11,
+            collective_seconds: 0.125,
+            insert_seconds: 0.0625,
+            sent_digest: u64::MAX - 3,
+            received_digests: vec![0, 16_693_685_070_742_802_857],
+            cache_records: 600,
+            seconds: 1.5,
+        }
+    }
+
+    fn distributed(frames: usize) -> DistributedStats {
+        DistributedStats {
+            scene: "cornell".to_owned(),
+            triangles: 32,
+            width: 64,
+            height: 48,
+            batch_records: 256,
+            batch_ms: 20,
+            share: true,
+            frames: DistributedFrames::new(
+                (0..frames)
+                    .map(|i| DistributedFrameStats::new(vec![rank(0), rank(1)], i as u64, 2.25))
+                    .collect(),
+            ),
+        }
+    }
+
+    #[test]
+    fn the_frame_json_reads_back_through_its_type() {
+        let mut stats = FrameStats {
+            scheme: "lw".to_owned(),
+            threads: 2,
+            width: 8,
+            height: 4,
+            seconds: 0.5,
+            ic_samples: 10,
+            lookups: 32,
+            hits: 22,
+            shared_hits: 11,
+            sharing: 0.5,
+            lock_wait_seconds: 0.125,
+            merge_seconds: 0.25,
+            discarded: 1,
+            stored: 9,
+            rejected: 2,
+            rays: RayCounts {
+                primary: 32,
+                shadow: 64,
+                hemisphere: 1000,
+            },
+            hemisphere_seconds: 0.25,
+            cache_records: 9,
+            worker_seconds: vec![0.5, 0.25],
+            ..FrameStats::default()
+        };
+        let summary = SceneSummary {
+            triangles: 36,
+            source: "real".to_owned(),
+        };
+        let written = stats.to_json("desk", &summary);
+        let read = StatsJson::from_json(&written).unwrap();
+        assert_eq!(read, stats.to_stats_json("desk", &summary));
+        assert_eq!(read.to_json(), written);
+        // Every field reaches the file: a change to any shows in what is read back.
+        stats.rejected = 3;
+        assert_ne!(
+            StatsJson::from_json(&stats.to_json("desk", &summary)).unwrap(),
+            read
+        );
+    }
+
+    #[test]
+    fn distributed_statistics_read_back_through_their_type() {
+        for frames in [1, 3] {
+            let stats = distributed(frames);
+            let text = stats.to_json();
+            let back = DistributedStats::from_json(&text).unwrap();
+            assert_eq!(back, stats, "{frames} frame(s)");
+            assert_eq!(back.frames.frames().len(), frames);
+            assert_eq!(back.to_json(), text);
+        }
+    }
+
+    #[test]
+    fn distributed_statistics_keep_the_file_layout() {
+        // One frame: its fields beside the render's.
+        let one: serde_json::Value = serde_json::from_str(&distributed(1).to_json()).unwrap();
+        let keys = |v: &serde_json::Value| {
+            let mut k: Vec<String> = v.as_object().unwrap().keys().cloned().collect();
+            k.sort();
+            k
+        };
+        let header = [
+            "batch_ms",
+            "batch_records",
+            "height",
+            "scene",
+            "share",
+            "triangles",
+            "width",
+        ];
+        let frame = ["duplicates", "ranks", "records_computed", "seconds"];
+        let mut want: Vec<&str> = header.iter().chain(&frame).copied().collect();
+        want.sort_unstable();
+        assert_eq!(keys(&one), want);
+        assert_eq!(one["records_computed"], 581);
+        assert_eq!(one["ranks"][1]["sent_digest"], u64::MAX - 3);
+        assert_eq!(keys(&one["ranks"][0]).len(), 17);
+        // Several: under `frames`.
+        let many: serde_json::Value = serde_json::from_str(&distributed(2).to_json()).unwrap();
+        let mut want: Vec<&str> = header.iter().copied().chain(["frames"]).collect();
+        want.sort_unstable();
+        assert_eq!(keys(&many), want);
+        assert_eq!(keys(&many["frames"][1]), frame);
+        assert_eq!(many["frames"][1]["duplicates"], 1);
+    }
+
+    #[test]
+    fn a_distributed_statistics_file_of_the_hand_built_layout_parses() {
+        // As `wfic render --distributed --stats` wrote it through `serde_json::json!` (keys
+        // sorted), one frame of one rank.
+        let text = r#"{
+  "batch_ms": 20, "batch_records": 256, "duplicates": 0, "height": 64,
+  "ranks": [{
+      "bytes_received": 0, "bytes_sent": 0, "cache_records": 747,
+      "collective_seconds": 0.000196684, "ic_samples": 747, "insert_seconds": 1.731e-6,
+      "rank": 0, "received_digests": [0], "records_computed": 747, "records_inserted": 0,
+      "records_received": 0, "records_sent": 747, "rounds": 11, "seconds": 0.129152011,
+      "sent_digest": 16693685070742802857, "threads": 1, "tiles": 16 }],
+  "records_computed": 747, "scene": "cornell", "seconds": 0.130704292, "share": true,
+  "triangles": 32, "width": 64 }"#;
+        let stats = DistributedStats::from_json(text).unwrap();
+        let DistributedFrames::One(frame) = &stats.frames else {
+            panic!("one frame: {stats:?}")
+        };
+        assert_eq!(frame.records_computed, 747);
+        assert_eq!(frame.ranks[0].sent_digest, 16_693_685_070_742_802_857);
+        assert_eq!(frame.ranks[0].rounds, 11);
+        assert_eq!((stats.width, stats.batch_ms, stats.share), (64, 20, true));
     }
 }
