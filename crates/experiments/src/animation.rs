@@ -1,12 +1,59 @@
 //! Figures 2 and 3: the 360° camera orbit, the cache kept across frames, per scheme (paper §4.2).
 //! Frame 0 starts from an empty cache (the still-image case); later frames mostly interpolate.
+//!
+//! Schedule: each scheme renders the whole orbit on a fresh cache. Analysis: per-frame times and
+//! new samples, and their totals. Report: `animation-SCENE.md`, `.csv`, `.png` and `.svg`.
 
-use super::plot::{Figure, Line, Panel};
-use super::{orbit_with_scheme, write_file, Machine};
-use wfic::cache::Scheme;
-use wfic_render::{scenes, FrameStats, RenderSettings};
-use std::fmt::Write as _;
+use crate::harness::table::{star, Table};
+use crate::harness::{Machine, Output, Provenance};
+use crate::plot::{Figure, Line, Panel};
 use std::path::Path;
+use wfic::cache::{CacheJob, IrradianceCache, Scheme};
+use wfic_render::{scenes, FrameStats, RenderSettings, Scene};
+
+/// Renders the scene's orbit (`frames` frames, the cache kept across them) with `scheme` and a
+/// fresh cache, calling `each(frame, &stats)` after every frame.
+pub fn orbit_with_scheme(
+    scheme: Scheme,
+    scene: &Scene,
+    settings: &RenderSettings,
+    threads: usize,
+    frames: usize,
+    each: &mut dyn FnMut(usize, &FrameStats),
+) -> Result<Vec<FrameStats>, String> {
+    struct Orbit<'a> {
+        scene: &'a Scene,
+        settings: &'a RenderSettings,
+        threads: usize,
+        frames: usize,
+        each: &'a mut dyn FnMut(usize, &FrameStats),
+    }
+    impl CacheJob for Orbit<'_> {
+        type Output = Vec<FrameStats>;
+        fn run<C: IrradianceCache>(self, mut cache: C) -> Vec<FrameStats> {
+            let each = self.each;
+            wfic_render::render_orbit(
+                self.scene,
+                self.settings,
+                &mut cache,
+                self.threads,
+                self.frames,
+                |i, f| each(i, &f.stats),
+            )
+        }
+    }
+    let config = settings
+        .cache_config(scene)
+        .map_err(|e| format!("{}: {e}", scene.name()))?;
+    let job = Orbit {
+        scene,
+        settings,
+        threads,
+        frames,
+        each,
+    };
+    Ok(scheme.build(config, job))
+}
 
 /// What to run.
 #[derive(Clone, Debug, PartialEq)]
@@ -31,6 +78,11 @@ impl AnimationConfig {
         } else {
             self.threads
         }
+    }
+
+    /// Every scheme's thread count, in plot order.
+    pub fn thread_counts(&self) -> Vec<usize> {
+        self.schemes.iter().map(|&s| self.threads_of(s)).collect()
     }
 }
 
@@ -115,95 +167,99 @@ impl Animation {
 
     /// `animation-<scene>.csv`: one row per scheme and frame.
     pub fn csv(&self) -> String {
-        let mut out = String::from(
-            "scene,scheme,threads,cores,oversubscribed,width,height,frame,seconds,ic_samples,lookups,\
-             hits,sharing,lock_wait_s,merge_s,discarded,cache_records\n",
-        );
-        for o in &self.orbits {
-            for (i, f) in o.frames.iter().enumerate() {
-                let _ = writeln!(
-                    out,
-                    "{},{},{},{},{},{},{},{i},{:.5},{},{},{},{:.4},{:.5},{:.5},{},{}",
-                    self.config.scene,
-                    o.scheme.name(),
-                    o.threads,
-                    self.machine.cores,
-                    self.machine.oversubscribed(o.threads),
-                    f.width,
-                    f.height,
-                    f.seconds,
-                    f.ic_samples,
-                    f.lookups,
-                    f.hits,
-                    f.sharing,
-                    f.lock_wait_seconds,
-                    f.merge_seconds,
-                    f.discarded,
-                    f.cache_records
-                );
-            }
-        }
-        out
+        let rows: Vec<(&Orbit, usize, &FrameStats)> = self
+            .orbits
+            .iter()
+            .flat_map(|o| o.frames.iter().enumerate().map(move |(i, f)| (o, i, f)))
+            .collect();
+        type Row<'a> = (&'a Orbit, usize, &'a FrameStats);
+        let m = &self.machine;
+        Table::new()
+            .csv("scene", |_: &Row| self.config.scene.clone())
+            .csv("scheme", |r| r.0.scheme.name().to_owned())
+            .csv("threads", |r| r.0.threads.to_string())
+            .csv("cores", |_| m.cores.to_string())
+            .csv("oversubscribed", |r| {
+                m.oversubscribed(r.0.threads).to_string()
+            })
+            .csv("width", |r| r.2.width.to_string())
+            .csv("height", |r| r.2.height.to_string())
+            .csv("frame", |r| r.1.to_string())
+            .csv("seconds", |r| format!("{:.5}", r.2.seconds))
+            .csv("ic_samples", |r| r.2.ic_samples.to_string())
+            .csv("lookups", |r| r.2.lookups.to_string())
+            .csv("hits", |r| r.2.hits.to_string())
+            .csv("sharing", |r| format!("{:.4}", r.2.sharing))
+            .csv("lock_wait_s", |r| format!("{:.5}", r.2.lock_wait_seconds))
+            .csv("merge_s", |r| format!("{:.5}", r.2.merge_seconds))
+            .csv("discarded", |r| r.2.discarded.to_string())
+            .csv("cache_records", |r| r.2.cache_records.to_string())
+            .csv_text(&rows)
     }
 
-    /// `animation-<scene>.md`: totals per scheme.
-    pub fn markdown(&self, command: &str) -> String {
-        let mut md = String::new();
+    /// `animation-<scene>.md`'s body: totals per scheme.
+    pub fn markdown(&self) -> String {
         let s = &self.config.settings;
-        let _ = writeln!(
-            md,
-            "# Animation: {}, {} frames over one orbit, cache kept across frames\n",
-            self.config.scene, self.config.frames
-        );
-        let _ = writeln!(md, "- command: `{command}`");
-        let _ = writeln!(md, "- {}", self.machine.banner(&self.threads()));
-        let _ = writeln!(
-            md,
-            "- image {}x{}, accuracy {}, {} rays per record, {} light samples per pixel\n",
-            s.width, s.height, s.accuracy, s.rays_per_record, s.light_samples
-        );
-        let _ = writeln!(
-            md,
-            "| scheme | threads | frame 0 (s) | frames 1.. mean (s) | total (s) | frame 0 samples | frames 1.. samples | total samples | lock wait (s) | merge (s) | discarded |"
-        );
-        let _ = writeln!(
-            md,
-            "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
-        );
-        for o in &self.orbits {
-            let rest = &o.frames[1.min(o.frames.len())..];
-            let mean = if rest.is_empty() {
-                f64::NAN
-            } else {
-                rest.iter().map(|f| f.seconds).sum::<f64>() / rest.len() as f64
-            };
-            let star = if self.machine.oversubscribed(o.threads) {
-                "*"
-            } else {
-                ""
-            };
-            let _ = writeln!(
-                md,
-                "| {} | {}{star} | {:.3} | {:.4} | {:.2} | {} | {} | {} | {:.3} | {:.4} | {} |",
-                o.scheme.heading(),
-                o.threads,
-                o.frames.first().map_or(f64::NAN, |f| f.seconds),
-                mean,
-                o.total_seconds(),
-                o.frames.first().map_or(0, |f| f.ic_samples),
-                rest.iter().map(|f| f.ic_samples).sum::<u64>(),
-                o.total_samples(),
-                o.frames.iter().map(|f| f.lock_wait_seconds).sum::<f64>(),
-                o.frames.iter().map(|f| f.merge_seconds).sum::<f64>(),
-                o.frames.iter().map(|f| f.discarded).sum::<u64>(),
-            );
-        }
-        let _ = writeln!(
-            md,
-            "\n`*`: oversubscribed (more threads than the {} cores).",
+        let rest = |o: &Orbit| -> Vec<FrameStats> { o.frames.iter().skip(1).cloned().collect() };
+        let sum = |o: &Orbit, f: fn(&FrameStats) -> f64| o.frames.iter().map(f).sum::<f64>();
+        let t = Table::new()
+            .md("scheme", |o: &Orbit| o.scheme.heading().to_owned())
+            .left()
+            .md("threads", |o| {
+                format!(
+                    "{}{}",
+                    o.threads,
+                    star(self.machine.oversubscribed(o.threads))
+                )
+            })
+            .md("frame 0 (s)", |o| {
+                format!("{:.3}", o.frames.first().map_or(f64::NAN, |f| f.seconds))
+            })
+            .md("frames 1.. mean (s)", |o| {
+                let rest = rest(o);
+                let mean = if rest.is_empty() {
+                    f64::NAN
+                } else {
+                    rest.iter().map(|f| f.seconds).sum::<f64>() / rest.len() as f64
+                };
+                format!("{mean:.4}")
+            })
+            .md("total (s)", |o| format!("{:.2}", o.total_seconds()))
+            .md("frame 0 samples", |o| {
+                o.frames.first().map_or(0, |f| f.ic_samples).to_string()
+            })
+            .md("frames 1.. samples", |o| {
+                rest(o)
+                    .iter()
+                    .map(|f| f.ic_samples)
+                    .sum::<u64>()
+                    .to_string()
+            })
+            .md("total samples", |o| o.total_samples().to_string())
+            .md("lock wait (s)", |o| {
+                format!("{:.3}", sum(o, |f| f.lock_wait_seconds))
+            })
+            .md("merge (s)", |o| {
+                format!("{:.4}", sum(o, |f| f.merge_seconds))
+            })
+            .md("discarded", |o| {
+                o.frames
+                    .iter()
+                    .map(|f| f.discarded)
+                    .sum::<u64>()
+                    .to_string()
+            });
+        format!(
+            "- image {}x{}, accuracy {}, {} rays per record, {} light samples per pixel\n\n{}\n\
+             `*`: oversubscribed (more threads than the {} cores).\n",
+            s.width,
+            s.height,
+            s.accuracy,
+            s.rays_per_record,
+            s.light_samples,
+            t.markdown(&self.orbits),
             self.machine.cores
-        );
-        md
+        )
     }
 
     /// Figures 2–3: time per frame and new IC samples per frame, one line per scheme. The y axes
@@ -216,11 +272,7 @@ impl Animation {
         let (mut tmax, mut smax) = (0.0f64, 0.0f64);
         let mut first = Vec::new();
         for o in &self.orbits {
-            let star = if self.machine.oversubscribed(o.threads) {
-                "*"
-            } else {
-                ""
-            };
+            let star = star(self.machine.oversubscribed(o.threads));
             let label = format!("{} {}T{star}", o.scheme.heading(), o.threads);
             legend.push((label.clone(), o.scheme.colour()));
             for f in o.frames.iter().skip(1) {
@@ -303,15 +355,21 @@ impl Animation {
         }
     }
 
-    /// Writes `animation-<scene>.csv`, `.md`, `.png` and `.svg` into `dir`.
+    /// Writes `animation-<scene>.csv`, `.md`, `.png` and `.svg` into `dir`, each with the
+    /// provenance of `command`.
     pub fn write(&self, dir: &Path, command: &str) -> Result<(), String> {
-        std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+        let provenance = Provenance::new(command, &self.machine, &self.threads(), &[]);
+        let out = Output::new(dir, &provenance)?;
         let stem = format!("animation-{}", self.config.scene);
-        write_file(&dir.join(format!("{stem}.csv")), &self.csv())?;
-        write_file(&dir.join(format!("{stem}.md")), &self.markdown(command))?;
+        out.csv(&format!("{stem}.csv"), &self.csv())?;
+        let title = format!(
+            "Animation: {}, {} frames over one orbit, cache kept across frames",
+            self.config.scene, self.config.frames
+        );
+        out.markdown(&format!("{stem}.md"), &title, &self.markdown())?;
         let figure = self.figure();
-        figure.write_png(&dir.join(format!("{stem}.png")))?;
-        figure.write_svg(&dir.join(format!("{stem}.svg")))
+        figure.write_png(&out.path(&format!("{stem}.png")))?;
+        figure.write_svg(&out.path(&format!("{stem}.svg")))
     }
 }
 
@@ -369,5 +427,28 @@ mod tests {
             &mut |_| {}
         )
         .is_err());
+    }
+
+    #[test]
+    fn orbit_reuses_the_cache_and_the_reference_keeps_nothing() {
+        let scene = wfic_render::scenes::cornell().unwrap();
+        let settings = RenderSettings::new(24, 24).rays_per_record(16);
+        let mut seen = Vec::new();
+        let stats = orbit_with_scheme(Scheme::Wf, &scene, &settings, 2, 3, &mut |i, s| {
+            seen.push((i, s.ic_samples))
+        })
+        .unwrap();
+        assert_eq!(stats.len(), 3);
+        assert_eq!(seen.len(), 3);
+        assert_eq!(seen[2].0, 2);
+        assert!(stats[0].ic_samples > 0);
+        // The records of earlier frames are kept: the cache only grows.
+        assert!(stats[2].cache_records >= stats[0].cache_records);
+        assert!(stats[2].cache_records as u64 >= stats[0].ic_samples);
+        // The reference computes every primary hit in every frame and keeps nothing.
+        let none =
+            orbit_with_scheme(Scheme::None, &scene, &settings, 2, 3, &mut |_, _| {}).unwrap();
+        assert!(none.iter().all(|s| s.cache_records == 0 && s.hits == 0));
+        assert!(none[2].ic_samples > 2 * stats[2].ic_samples, "{none:?}");
     }
 }

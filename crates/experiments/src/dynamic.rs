@@ -1,8 +1,9 @@
-//! `wfic reproduce dynamic`: a scene that moves, and what removal buys (issue 13; the paper's
-//! §5.1 future work).
+//! `wfic reproduce dynamic`: a scene that moves, and what removal buys (the paper's §5.1
+//! future work).
 //!
 //! `cornell-moving` slides the Cornell box's short block across the floor over the animation
-//! ([`scenes::cornell_moving`]); the camera stays. Each scheme renders every frame five ways:
+//! ([`scenes::cornell_moving`]); the camera stays. Each scheme renders every frame five ways
+//! ([`Mode`]):
 //!
 //! * **removal**: one cache for the whole animation; at the start of each frame after the first,
 //!   worker 0 removes, through its handle and while the other workers already shade, the records
@@ -19,25 +20,30 @@
 //! * **fresh**: a new, empty cache every frame (correct, and as slow as a still image).
 //! * **stale**: one cache, nothing removed (records keep the light of the block's old place).
 //!
-//! The removal mode runs `passes` times per scheme, the schemes interleaved, and each frame's
-//! time is the median of its passes (the comparison of schemes frame by frame needs it: WF and
-//! LCK differ by a few percent at 2 threads).
+//! Schedule: the brute-force references, then every scheme in every mode; the removal mode then
+//! runs `passes - 1` more times per scheme, the schemes interleaved, and each frame's time is
+//! the median of its passes (the comparison of schemes frame by frame needs it: WF and LCK
+//! differ by a few percent at 2 threads); last, the tolerance sweep.
 //!
 //! Every frame is measured against a brute-force rendering of that frame (scheme `none`, the
 //! same seed and light samples, so the error is what the cache interpolates and what it kept):
 //! relative RMSE of luminance over the pixels that see a non-emitting surface.
 
-use super::plot::{Figure, Line, Panel};
-use super::radiance::image_error;
-use super::{write_file, Machine};
-use wfic::cache::{CacheJob, IrradianceCache, Scheme};
+use crate::harness::measure::repeat;
+use crate::harness::metrics::{image_error, surface_mask};
+use crate::harness::stats::{self, median_index, std_dev, Middle};
+use crate::harness::table::{pct, star, Table};
+use crate::harness::{Check, Machine, Output, Provenance, Verdict};
+use crate::plot::{Figure, Line, Panel};
+use std::collections::HashMap;
+use std::fmt::Write as _;
+use std::path::Path;
+use wfic::cache::{CacheConfig, CacheJob, IrradianceCache, Scheme};
 use wfic::ic::Selection;
 use wfic_render::film::Image;
 use wfic_render::parallel::{render_frame_removing, render_reference};
 use wfic_render::scenes::{self, short_block_bounds, CORNELL_SLIDE};
 use wfic_render::{RenderSettings, Scene};
-use std::fmt::Write as _;
-use std::path::Path;
 
 /// The only scene this experiment knows.
 pub const SCENE: &str = "cornell-moving";
@@ -70,6 +76,50 @@ impl DynamicConfig {
         } else {
             self.threads
         }
+    }
+
+    /// Every scheme's thread count, in table order.
+    pub fn thread_counts(&self) -> Vec<usize> {
+        self.schemes.iter().map(|&s| self.threads_of(s)).collect()
+    }
+
+    /// Frames rendered in all (references included): the progress bar's length.
+    pub fn total_frames(&self) -> usize {
+        let renders = 1
+            + (Mode::ALL.len() + self.passes.saturating_sub(1)) * self.schemes.len()
+            + self.passes * self.sweep.len();
+        self.frames * renders
+    }
+
+    /// Refuses a configuration that cannot run, naming the argument.
+    fn validate(&self) -> Result<(), String> {
+        if self.scene != SCENE {
+            return Err(format!(
+                "reproduce dynamic: unknown scene {:?}; the one moving scene is {SCENE:?}",
+                self.scene
+            ));
+        }
+        if self.frames < 2 {
+            return Err(format!(
+                "reproduce dynamic: --frames {} is too few: removal needs a frame after the first",
+                self.frames
+            ));
+        }
+        if self.threads == 0 || self.schemes.is_empty() {
+            return Err("reproduce dynamic: --threads and --schemes must not be empty".to_owned());
+        }
+        if self.passes == 0 {
+            return Err("reproduce dynamic: --passes 0 times nothing; give 1 or more".to_owned());
+        }
+        if let Some(k) = self.sweep.iter().find(|k| !(k.is_finite() && **k > 0.0)) {
+            return Err(format!(
+                "reproduce dynamic: --sweep {k} is no tolerance: give multiples of the accuracy above 0"
+            ));
+        }
+        if self.schemes.contains(&Scheme::None) {
+            return Err("reproduce dynamic: `none` keeps no records; it is every frame's reference, always rendered".to_owned());
+        }
+        Ok(())
     }
 }
 
@@ -147,6 +197,14 @@ impl Row {
     pub fn bytes(&self) -> usize {
         self.records * 160 + self.nodes * 88
     }
+
+    /// Sets the seconds to the median pass of `times` (for two passes, the slower: a time that
+    /// was measured), and the range and count of the passes.
+    fn take_median(&mut self, times: &[f64]) {
+        self.seconds = times[median_index(times, Middle::Upper)];
+        self.seconds_range = stats::range(times.iter().copied());
+        self.passes = times.len();
+    }
 }
 
 /// A finished run.
@@ -177,38 +235,59 @@ fn t_of(i: usize, frames: usize) -> f32 {
     i as f32 / (frames - 1) as f32
 }
 
-/// The pixels that see a non-emitting surface through `settings`' pixel centres.
-fn surface_mask(scene: &Scene, settings: &RenderSettings) -> Vec<bool> {
-    let view = scene.camera().view(settings.width, settings.height);
-    let mut mask = Vec::with_capacity((settings.width * settings.height) as usize);
-    for y in 0..settings.height {
-        for x in 0..settings.width {
-            let d = view.direction(x as f32 + 0.5, y as f32 + 0.5);
-            mask.push(
-                scene
-                    .intersect(view.eye(), d, f32::INFINITY)
-                    .is_some_and(|h| !h.material.is_emissive()),
-            );
-        }
+/// What every render of the animation shares: the frames' scenes, references and masks.
+struct Frames<'a> {
+    scenes: &'a [Scene],
+    references: &'a [Image],
+    masks: &'a [Vec<bool>],
+    settings: &'a RenderSettings,
+    cache_config: CacheConfig,
+    /// [`Selection::near`]'s margin for [`Mode::RemovalNear`].
+    margin: f32,
+    /// Threads of the parallel schemes.
+    threads: usize,
+}
+
+impl Frames<'_> {
+    /// Renders `span` of the frames on one new cache of `scheme` in `mode` (removing at
+    /// `tolerance`), keeping the images of the frames in `keep`.
+    fn render(
+        &self,
+        (scheme, mode, tolerance): (Scheme, Mode, f32),
+        span: std::ops::Range<usize>,
+        keep: &[usize],
+        progress: &mut dyn FnMut(&str),
+    ) -> (Vec<Row>, Vec<Image>) {
+        let threads = if scheme == Scheme::Tra {
+            1
+        } else {
+            self.threads
+        };
+        let job = Animate {
+            frames: self,
+            span,
+            scheme,
+            mode,
+            threads,
+            progress,
+            keep,
+            tolerance,
+        };
+        scheme.build(self.cache_config, job)
     }
-    mask
 }
 
 /// Renders the animation with one scheme's caches in one mode.
 struct Animate<'a> {
-    /// Every frame's scene; this job renders `frames` of them.
-    scenes: &'a [Scene],
-    frames: std::ops::Range<usize>,
-    references: &'a [Image],
-    masks: &'a [Vec<bool>],
-    settings: &'a RenderSettings,
+    frames: &'a Frames<'a>,
+    /// The frames this job renders, on one cache.
+    span: std::ops::Range<usize>,
     scheme: Scheme,
     mode: Mode,
     threads: usize,
     progress: &'a mut dyn FnMut(&str),
+    /// The frames whose images are kept.
     keep: &'a [usize],
-    /// [`Selection::near`]'s margin for [`Mode::RemovalNear`].
-    margin: f32,
     /// [`Selection::moving`]'s tolerance for [`Mode::Removal`].
     tolerance: f32,
 }
@@ -234,7 +313,7 @@ impl Animate<'_> {
                 )
                 .expect(ok),
             ),
-            Mode::RemovalNear => Some(Selection::near(lo, hi, self.margin).expect(ok)),
+            Mode::RemovalNear => Some(Selection::near(lo, hi, self.frames.margin).expect(ok)),
             Mode::RemovalLocal => Some(Selection::touching(lo, hi).expect(ok)),
             Mode::Fresh | Mode::Stale => None,
         }
@@ -245,11 +324,12 @@ impl CacheJob for Animate<'_> {
     type Output = (Vec<Row>, Vec<Image>);
 
     fn run<C: IrradianceCache>(self, mut cache: C) -> Self::Output {
-        let n = self.scenes.len();
-        let mut rows = Vec::with_capacity(self.frames.len());
+        let f = self.frames;
+        let n = f.scenes.len();
+        let mut rows = Vec::with_capacity(self.span.len());
         let mut kept = Vec::new();
-        for i in self.frames.clone() {
-            let scene = &self.scenes[i];
+        for i in self.span.clone() {
+            let scene = &f.scenes[i];
             (self.progress)(&format!(
                 "{} {} frame {}/{n}",
                 self.scheme.name(),
@@ -261,7 +341,7 @@ impl CacheJob for Animate<'_> {
             let out = render_frame_removing(
                 scene,
                 &camera,
-                self.settings,
+                f.settings,
                 &mut cache,
                 self.threads,
                 removal.as_ref(),
@@ -279,7 +359,7 @@ impl CacheJob for Animate<'_> {
                 removed: out.stats.removed,
                 records: stats.records,
                 nodes: stats.nodes,
-                error: image_error(&out.image, &self.references[i], &self.masks[i]).rel_rmse,
+                error: image_error(&out.image, &f.references[i], &f.masks[i]).rel_rmse,
             });
             if self.keep.contains(&i) {
                 kept.push(out.image);
@@ -289,38 +369,48 @@ impl CacheJob for Animate<'_> {
     }
 }
 
+/// The margin within which the block, seen face on, fills more than the cache's accuracy of a
+/// point's view: `sqrt(A / (pi a))` for the largest face of its bounds.
+fn near_margin(accuracy: f32) -> f32 {
+    let (lo, hi) = short_block_bounds(glam::Vec3::ZERO);
+    let e = hi - lo;
+    let face = (e.x * e.y).max(e.y * e.z).max(e.x * e.z);
+    (face / (std::f32::consts::PI * accuracy)).sqrt()
+}
+
+/// Every frame's brute-force reference; and their seconds.
+fn references(
+    scenes: &[Scene],
+    config: &DynamicConfig,
+    cache_config: CacheConfig,
+    progress: &mut dyn FnMut(&str),
+) -> (Vec<Image>, f64) {
+    let n = scenes.len();
+    crate::harness::measure::timed(|| {
+        let mut references = Vec::with_capacity(n);
+        for (i, scene) in scenes.iter().enumerate() {
+            progress(&format!("reference frame {}/{n}", i + 1));
+            let camera = scene.camera();
+            let r = render_reference(
+                scene,
+                &camera,
+                &config.settings,
+                cache_config,
+                config.threads,
+            );
+            references.push(r.image);
+        }
+        references
+    })
+}
+
 /// Runs the experiment; `progress(label)` is called before every frame.
 pub fn run(
     config: &DynamicConfig,
     machine: &Machine,
     progress: &mut dyn FnMut(&str),
 ) -> Result<Dynamic, String> {
-    if config.scene != SCENE {
-        return Err(format!(
-            "reproduce dynamic: unknown scene {:?}; the one moving scene is {SCENE:?}",
-            config.scene
-        ));
-    }
-    if config.frames < 2 {
-        return Err(format!(
-            "reproduce dynamic: --frames {} is too few: removal needs a frame after the first",
-            config.frames
-        ));
-    }
-    if config.threads == 0 || config.schemes.is_empty() {
-        return Err("reproduce dynamic: --threads and --schemes must not be empty".to_owned());
-    }
-    if config.passes == 0 {
-        return Err("reproduce dynamic: --passes 0 times nothing; give 1 or more".to_owned());
-    }
-    if let Some(k) = config.sweep.iter().find(|k| !(k.is_finite() && **k > 0.0)) {
-        return Err(format!(
-            "reproduce dynamic: --sweep {k} is no tolerance: give multiples of the accuracy above 0"
-        ));
-    }
-    if config.schemes.contains(&Scheme::None) {
-        return Err("reproduce dynamic: `none` keeps no records; it is every frame's reference, always rendered".to_owned());
-    }
+    config.validate()?;
     let n = config.frames;
     let scenes: Vec<Scene> = (0..n)
         .map(|i| scenes::cornell_moving(t_of(i, n)).map_err(|e| e.to_string()))
@@ -331,33 +421,20 @@ pub fn run(
         .settings
         .cache_config(&scenes[0])
         .map_err(|e| e.to_string())?;
-    let start = std::time::Instant::now();
-    let mut references = Vec::with_capacity(n);
-    for (i, scene) in scenes.iter().enumerate() {
-        progress(&format!("reference frame {}/{n}", i + 1));
-        let camera = scene.camera();
-        references.push(
-            render_reference(
-                scene,
-                &camera,
-                &config.settings,
-                cache_config,
-                config.threads,
-            )
-            .image,
-        );
-    }
-    let reference_seconds = start.elapsed().as_secs_f64();
+    let (references, reference_seconds) = references(&scenes, config, cache_config, progress);
     let masks: Vec<Vec<bool>> = scenes
         .iter()
-        .map(|s| surface_mask(s, &config.settings))
+        .map(|s| surface_mask(s, &config.settings, 1))
         .collect();
-    // The margin within which the block, seen face on, fills more than the cache's accuracy of a
-    // point's view: `sqrt(A / (pi a))` for the largest face of its bounds.
-    let (lo, hi) = short_block_bounds(glam::Vec3::ZERO);
-    let e = hi - lo;
-    let face = (e.x * e.y).max(e.y * e.z).max(e.x * e.z);
-    let margin = (face / (std::f32::consts::PI * config.settings.accuracy)).sqrt();
+    let frames = Frames {
+        scenes: &scenes,
+        references: &references,
+        masks: &masks,
+        settings: &config.settings,
+        cache_config,
+        margin: near_margin(config.settings.accuracy),
+        threads: config.threads,
+    };
     let keep: Vec<usize> = {
         let mut k: Vec<usize> = (0..4).map(|j| j * (n - 1) / 3).collect();
         k.dedup();
@@ -368,6 +445,7 @@ pub fn run(
     } else {
         *config.schemes.last().expect("not empty")
     };
+    let accuracy = config.settings.accuracy;
     let mut rows = Vec::new();
     let (mut with_removal, mut stale) = (Vec::new(), Vec::new());
     for &scheme in &config.schemes {
@@ -375,97 +453,65 @@ pub fn run(
             // One cache for the whole animation, or (fresh) a new one for every frame.
             let spans: Vec<std::ops::Range<usize>> = match mode {
                 Mode::Fresh => (0..n).map(|i| i..i + 1).collect(),
-                Mode::Removal | Mode::RemovalNear | Mode::RemovalLocal | Mode::Stale => {
-                    std::iter::once(0..n).collect()
-                }
+                _ => vec![0..n],
             };
             let mut kept = Vec::new();
-            for frames in spans {
-                let (r, k) = scheme.build(
-                    cache_config,
-                    Animate {
-                        scenes: &scenes,
-                        frames,
-                        references: &references,
-                        masks: &masks,
-                        settings: &config.settings,
-                        scheme,
-                        mode,
-                        threads: config.threads_of(scheme),
-                        progress: &mut *progress,
-                        keep: &keep,
-                        margin,
-                        tolerance: config.settings.accuracy,
-                    },
-                );
+            for span in spans {
+                let (r, k) = frames.render((scheme, mode, accuracy), span, &keep, &mut *progress);
                 rows.extend(r);
                 kept.extend(k);
             }
-            if scheme == strip_scheme {
-                match mode {
-                    Mode::Removal => with_removal = kept,
-                    Mode::Stale => stale = kept,
-                    Mode::RemovalNear | Mode::RemovalLocal | Mode::Fresh => {}
-                }
+            match mode {
+                Mode::Removal if scheme == strip_scheme => with_removal = kept,
+                Mode::Stale if scheme == strip_scheme => stale = kept,
+                _ => {}
             }
         }
     }
+    let mut removal = |scheme: Scheme, tolerance: f32| {
+        frames
+            .render(
+                (scheme, Mode::Removal, tolerance),
+                0..n,
+                &[],
+                &mut *progress,
+            )
+            .0
+    };
     // The removal mode's further passes, the schemes interleaved so that a slow spell of the
     // machine falls on all of them: only their times are kept.
-    let mut times: std::collections::HashMap<(Scheme, usize), Vec<f64>> =
-        std::collections::HashMap::new();
-    for r in rows.iter().filter(|r| r.mode == Mode::Removal) {
+    let mut times: HashMap<(Scheme, usize), Vec<f64>> = HashMap::new();
+    let mut passes: Vec<Row> = rows
+        .iter()
+        .filter(|r| r.mode == Mode::Removal)
+        .cloned()
+        .collect();
+    for _ in 1..config.passes {
+        for &scheme in &config.schemes {
+            passes.extend(removal(scheme, accuracy));
+        }
+    }
+    for r in passes {
         times
             .entry((r.scheme, r.frame))
             .or_default()
             .push(r.seconds);
     }
-    let removal = |scheme: Scheme, tolerance: f32, progress: &mut dyn FnMut(&str)| {
-        scheme
-            .build(
-                cache_config,
-                Animate {
-                    scenes: &scenes,
-                    frames: 0..n,
-                    references: &references,
-                    masks: &masks,
-                    settings: &config.settings,
-                    scheme,
-                    mode: Mode::Removal,
-                    threads: config.threads_of(scheme),
-                    progress,
-                    keep: &[],
-                    margin,
-                    tolerance,
-                },
-            )
-            .0
-    };
-    for _ in 1..config.passes {
-        for &scheme in &config.schemes {
-            for r in removal(scheme, config.settings.accuracy, &mut *progress) {
-                times
-                    .entry((r.scheme, r.frame))
-                    .or_default()
-                    .push(r.seconds);
-            }
-        }
-    }
     for r in rows.iter_mut().filter(|r| r.mode == Mode::Removal) {
-        take_median(r, &times[&(r.scheme, r.frame)]);
+        r.take_median(&times[&(r.scheme, r.frame)]);
     }
     // The tolerance sweep: each tolerance's passes back to back, frame times their median.
     let mut sweep = Vec::with_capacity(config.sweep.len());
     for &k in &config.sweep {
-        let tolerance = k * config.settings.accuracy;
-        let mut runs: Vec<Vec<Row>> = (0..config.passes)
-            .map(|_| removal(strip_scheme, tolerance, &mut *progress))
-            .collect();
-        let mut first = runs.swap_remove(0);
+        let tolerance = k * accuracy;
+        let mut runs: Vec<Vec<Row>> = repeat(config.passes, |_| {
+            Ok::<_, String>(removal(strip_scheme, tolerance))
+        })?;
+        let mut first = runs.remove(0);
         for r in &mut first {
             let mut t = vec![r.seconds];
             t.extend(runs.iter().map(|run| run[r.frame].seconds));
-            take_median(r, &t);
+            r.take_median(&t);
         }
         sweep.push((tolerance, first));
     }
@@ -479,30 +525,42 @@ pub fn run(
         machine: machine.clone(),
         rows,
         reference_seconds,
-        margin,
+        margin: frames.margin,
         strip,
         strip_scheme,
         sweep,
     })
 }
 
-/// Sets `row`'s seconds to the median of `times`, and its range and passes.
-fn take_median(row: &mut Row, times: &[f64]) {
-    let mut t = times.to_vec();
-    t.sort_by(f64::total_cmp);
-    row.seconds = t[t.len() / 2];
-    row.seconds_range = (t[0], t[t.len() - 1]);
-    row.passes = t.len();
+/// Mean of `f` over `rows` after frame 0.
+fn mean_after_first<'a>(rows: impl IntoIterator<Item = &'a Row>, f: impl Fn(&Row) -> f64) -> f64 {
+    stats::mean(rows.into_iter().filter(|r| r.frame > 0).map(f))
 }
 
-/// Mean of `f` over the rows of `scheme` in `mode` after frame 0.
-fn mean_after_first(rows: &[Row], scheme: Scheme, mode: Mode, f: impl Fn(&Row) -> f64) -> f64 {
-    let v: Vec<f64> = rows
-        .iter()
-        .filter(|r| r.scheme == scheme && r.mode == mode && r.frame > 0)
-        .map(f)
-        .collect();
-    v.iter().sum::<f64>() / v.len().max(1) as f64
+/// A summary of frames after the first: the table rows of both Markdown tables.
+struct Summary<'a> {
+    label: String,
+    mode: Mode,
+    rows: Vec<&'a Row>,
+    fresh_seconds: f64,
+}
+
+impl Summary<'_> {
+    fn mean(&self, f: impl Fn(&Row) -> f64) -> f64 {
+        mean_after_first(self.rows.iter().copied(), f)
+    }
+
+    fn last(&self) -> Option<&Row> {
+        self.rows.iter().copied().rfind(|r| r.frame > 0)
+    }
+
+    fn max_error(&self) -> f64 {
+        self.rows
+            .iter()
+            .filter(|r| r.frame > 0)
+            .map(|r| r.error)
+            .fold(0.0, f64::max)
+    }
 }
 
 impl Dynamic {
@@ -512,78 +570,65 @@ impl Dynamic {
             .filter(move |r| r.scheme == scheme && r.mode == mode)
     }
 
+    fn mean(&self, scheme: Scheme, mode: Mode, f: impl Fn(&Row) -> f64) -> f64 {
+        mean_after_first(self.rows_of(scheme, mode), f)
+    }
+
     fn star(&self, threads: usize) -> &'static str {
-        if self.machine.oversubscribed(threads) {
-            "*"
-        } else {
-            ""
-        }
+        star(self.machine.oversubscribed(threads))
     }
 
     /// `dynamic.csv`: one row per scheme, mode and frame.
     pub fn csv(&self) -> String {
-        let mut out = String::from(
-            "scene,scheme,mode,threads,cores,oversubscribed,width,height,frame,seconds,\
-             seconds_min,seconds_max,passes,ic_samples,removed,records,nodes,bytes_estimate,\
-             rel_rmse\n",
-        );
         let s = &self.config.settings;
-        for r in &self.rows {
-            let _ = writeln!(
-                out,
-                "{},{},{},{},{},{},{},{},{},{:.6},{:.6},{:.6},{},{},{},{},{},{},{:.6}",
-                self.config.scene,
-                r.scheme.name(),
-                r.mode.name(),
-                r.threads,
-                self.machine.cores,
-                self.machine.oversubscribed(r.threads),
-                s.width,
-                s.height,
-                r.frame,
-                r.seconds,
-                r.seconds_range.0,
-                r.seconds_range.1,
-                r.passes,
-                r.ic_samples,
-                r.removed,
-                r.records,
-                r.nodes,
-                r.bytes(),
-                r.error
-            );
-        }
-        out
+        let m = &self.machine;
+        Table::new()
+            .csv("scene", |_: &Row| self.config.scene.clone())
+            .csv("scheme", |r| r.scheme.name().to_owned())
+            .csv("mode", |r| r.mode.name().to_owned())
+            .csv("threads", |r| r.threads.to_string())
+            .csv("cores", |_| m.cores.to_string())
+            .csv("oversubscribed", |r| {
+                m.oversubscribed(r.threads).to_string()
+            })
+            .csv("width", |_| s.width.to_string())
+            .csv("height", |_| s.height.to_string())
+            .csv("frame", |r| r.frame.to_string())
+            .csv("seconds", |r| format!("{:.6}", r.seconds))
+            .csv("seconds_min", |r| format!("{:.6}", r.seconds_range.0))
+            .csv("seconds_max", |r| format!("{:.6}", r.seconds_range.1))
+            .csv("passes", |r| r.passes.to_string())
+            .csv("ic_samples", |r| r.ic_samples.to_string())
+            .csv("removed", |r| r.removed.to_string())
+            .csv("records", |r| r.records.to_string())
+            .csv("nodes", |r| r.nodes.to_string())
+            .csv("bytes_estimate", |r| r.bytes().to_string())
+            .csv("rel_rmse", |r| format!("{:.6}", r.error))
+            .csv_text(&self.rows)
     }
 
     /// `dynamic-sweep.csv`: the removal mode's frames at every tolerance (the main run's, `a`,
     /// among them).
     pub fn sweep_csv(&self) -> String {
-        let mut out = String::from(
-            "scheme,threads,tolerance,frame,seconds,seconds_min,seconds_max,passes,ic_samples,\
-             removed,records,rel_rmse\n",
-        );
-        for (tolerance, rows) in self.sweep_rows() {
-            for r in rows {
-                let _ = writeln!(
-                    out,
-                    "{},{},{},{},{:.6},{:.6},{:.6},{},{},{},{},{:.6}",
-                    r.scheme.name(),
-                    r.threads,
-                    tolerance,
-                    r.frame,
-                    r.seconds,
-                    r.seconds_range.0,
-                    r.seconds_range.1,
-                    r.passes,
-                    r.ic_samples,
-                    r.removed,
-                    r.records,
-                    r.error
-                );
-            }
-        }
-        out
+        let rows: Vec<(f32, &Row)> = self
+            .sweep_rows()
+            .into_iter()
+            .flat_map(|(t, rows)| rows.into_iter().map(move |r| (t, r)))
+            .collect();
+        Table::new()
+            .csv("scheme", |(_, r): &(f32, &Row)| r.scheme.name().to_owned())
+            .csv("threads", |(_, r)| r.threads.to_string())
+            .csv("tolerance", |(t, _)| t.to_string())
+            .csv("frame", |(_, r)| r.frame.to_string())
+            .csv("seconds", |(_, r)| format!("{:.6}", r.seconds))
+            .csv("seconds_min", |(_, r)| format!("{:.6}", r.seconds_range.0))
+            .csv("seconds_max", |(_, r)| format!("{:.6}", r.seconds_range.1))
+            .csv("passes", |(_, r)| r.passes.to_string())
+            .csv("ic_samples", |(_, r)| r.ic_samples.to_string())
+            .csv("removed", |(_, r)| r.removed.to_string())
+            .csv("records", |(_, r)| r.records.to_string())
+            .csv("rel_rmse", |(_, r)| format!("{:.6}", r.error))
+            .csv_text(&rows)
     }
 
     /// The main run's removal frames of the sweep's scheme (tolerance `a`) and the sweep's, in
@@ -598,16 +643,44 @@ impl Dynamic {
         out
     }
 
-    /// The checks the issue expects, each `(claim, verdict, detail)`.
-    pub fn checks(&self) -> Vec<(String, bool, String)> {
+    /// The frames (after the first) another scheme rendered faster than WF with removal.
+    fn frames_wf_lost(&self) -> Vec<String> {
+        let mut lost = Vec::new();
+        for i in 1..self.config.frames {
+            let of = |s: Scheme| {
+                self.rows_of(s, Mode::Removal)
+                    .find(|r| r.frame == i)
+                    .map(|r| r.seconds)
+            };
+            let wf = of(Scheme::Wf).unwrap_or(f64::INFINITY);
+            for &s in &self.config.schemes {
+                if s == Scheme::Wf || s == Scheme::Tra {
+                    continue;
+                }
+                if let Some(t) = of(s).filter(|&t| t < wf) {
+                    lost.push(format!(
+                        "frame {i}: {} {:.3} s < WF {:.3} s",
+                        s.heading(),
+                        t,
+                        wf
+                    ));
+                }
+            }
+        }
+        lost
+    }
+
+    /// The checks: removal as accurate as a fresh cache and several times faster, per scheme;
+    /// WF the fastest with removal on every frame after the first.
+    pub fn checks(&self) -> Vec<Check> {
         let mut out = Vec::new();
         for &scheme in &self.config.schemes {
             let h = scheme.heading();
-            let t_a = mean_after_first(&self.rows, scheme, Mode::Removal, |r| r.seconds);
-            let t_b = mean_after_first(&self.rows, scheme, Mode::Fresh, |r| r.seconds);
-            let e_a = mean_after_first(&self.rows, scheme, Mode::Removal, |r| r.error);
-            let e_b = mean_after_first(&self.rows, scheme, Mode::Fresh, |r| r.error);
-            let e_c = mean_after_first(&self.rows, scheme, Mode::Stale, |r| r.error);
+            let t_a = self.mean(scheme, Mode::Removal, |r| r.seconds);
+            let t_b = self.mean(scheme, Mode::Fresh, |r| r.seconds);
+            let e_a = self.mean(scheme, Mode::Removal, |r| r.error);
+            let e_b = self.mean(scheme, Mode::Fresh, |r| r.error);
+            let e_c = self.mean(scheme, Mode::Stale, |r| r.error);
             // "Within noise": the fresh frames' own spread of error, frame to frame.
             let fresh: Vec<f64> = self
                 .rows_of(scheme, Mode::Fresh)
@@ -615,11 +688,12 @@ impl Dynamic {
                 .map(|r| r.error)
                 .collect();
             let spread = std_dev(&fresh);
-            out.push((
+            out.push(Check::new(
+                "",
                 format!(
                     "{h}: removal as accurate as a fresh cache (within the fresh frames' spread)"
                 ),
-                e_a <= e_b + spread,
+                Verdict::of(e_a <= e_b + spread),
                 format!(
                     "mean error {:.2}% against {:.2}% (spread {:.2}%); stale {:.2}%",
                     100.0 * e_a,
@@ -628,52 +702,27 @@ impl Dynamic {
                     100.0 * e_c
                 ),
             ));
-            out.push((
+            out.push(Check::new(
+                "",
                 format!(
                     "{h}: removal several (>= 3) times faster than a fresh cache after frame 0"
                 ),
-                t_b >= 3.0 * t_a,
-                format!(
-                    "{:.3} s against {:.3} s a frame: {:.2}x",
-                    t_a,
-                    t_b,
-                    t_b / t_a
-                ),
+                Verdict::of(t_b >= 3.0 * t_a),
+                format!("{t_a:.3} s against {t_b:.3} s a frame: {:.2}x", t_b / t_a),
             ));
         }
         // WF fastest with removal on every frame after the first, among the schemes at the
         // configured thread count (TRA runs on one).
         if self.config.schemes.contains(&Scheme::Wf) {
-            let mut lost = Vec::new();
-            for i in 1..self.config.frames {
-                let of = |s: Scheme| {
-                    self.rows_of(s, Mode::Removal)
-                        .find(|r| r.frame == i)
-                        .map(|r| r.seconds)
-                };
-                let wf = of(Scheme::Wf).unwrap_or(f64::INFINITY);
-                for &s in &self.config.schemes {
-                    if s != Scheme::Wf && s != Scheme::Tra {
-                        if let Some(t) = of(s) {
-                            if t < wf {
-                                lost.push(format!(
-                                    "frame {i}: {} {:.3} s < WF {:.3} s",
-                                    s.heading(),
-                                    t,
-                                    wf
-                                ));
-                            }
-                        }
-                    }
-                }
-            }
-            out.push((
+            let lost = self.frames_wf_lost();
+            out.push(Check::new(
+                "",
                 format!(
                     "WF the fastest scheme with removal at {} threads{} on every frame after the first",
                     self.config.threads,
                     self.star(self.config.threads)
                 ),
-                lost.is_empty(),
+                Verdict::of(lost.is_empty()),
                 if lost.is_empty() {
                     "no frame where another scheme was faster".to_owned()
                 } else {
@@ -684,25 +733,11 @@ impl Dynamic {
         out
     }
 
-    /// `dynamic.md`.
-    pub fn markdown(&self, command: &str) -> String {
+    /// What was rendered and how the error is measured: the page's first paragraphs.
+    fn intro(&self) -> String {
         let s = &self.config.settings;
         let n = self.config.frames;
-        let mut md = String::new();
-        let _ = writeln!(
-            md,
-            "# A scene that moves: removal against a fresh and a stale cache\n"
-        );
-        let _ = writeln!(md, "`{command}`\n");
-        let threads: Vec<usize> = self
-            .config
-            .schemes
-            .iter()
-            .map(|&x| self.config.threads_of(x))
-            .collect();
-        let _ = writeln!(md, "{}\n", self.machine.banner(&threads));
-        let _ = writeln!(
-            md,
+        format!(
             "`{}`: the Cornell box's short block slides {:.0} mm along the floor over {n} frames \
              ({:.1} mm a frame); the camera stays. {}x{}, {} primary rays a pixel, {} rays a \
              record, {} light samples, a = {}. Error: relative RMSE of luminance against each \
@@ -718,7 +753,7 @@ impl Dynamic {
              sqrt(A / (pi a))), meets the block's last and new place. `removal-local`: the same \
              grown by nothing. LW's global records go at its merge, after the frame. The removal \
              mode ran {} times per scheme, the schemes interleaved: its seconds are each frame's \
-             median (the CSV has the range).\n",
+             median (the CSV has the range).\n\n",
             self.config.scene,
             CORNELL_SLIDE.length() * 1000.0,
             CORNELL_SLIDE.length() * 1000.0 / (n - 1) as f32,
@@ -732,120 +767,140 @@ impl Dynamic {
             self.margin * 1000.0,
             self.margin * 1000.0,
             self.config.passes
-        );
-        let _ = writeln!(
-            md,
-            "## Frames after the first (means over frames 1..{})\n",
-            n - 1
-        );
-        let _ = writeln!(
-            md,
-            "| scheme | threads | mode | seconds | IC samples | removed | records (last) | nodes (last) | memory est. (last) | error mean | error max | time vs fresh |"
-        );
-        let _ = writeln!(
-            md,
-            "|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
-        );
+        )
+    }
+
+    /// The means over frames after the first, per scheme and mode.
+    fn modes_markdown(&self) -> String {
+        let mut summaries = Vec::new();
         for &scheme in &self.config.schemes {
-            let fresh_t = mean_after_first(&self.rows, scheme, Mode::Fresh, |r| r.seconds);
+            let fresh_seconds = self.mean(scheme, Mode::Fresh, |r| r.seconds);
             for mode in Mode::ALL {
-                let rows: Vec<&Row> = self.rows_of(scheme, mode).filter(|r| r.frame > 0).collect();
-                let Some(last) = rows.last() else { continue };
-                let t = mean_after_first(&self.rows, scheme, mode, |r| r.seconds);
-                let max_e = rows.iter().map(|r| r.error).fold(0.0, f64::max);
-                let _ = writeln!(
-                    md,
-                    "| {} | {}{} | {} | {:.3} | {:.0} | {:.0} | {} | {} | {:.0} KiB | {:.2}% | {:.2}% | {:.2}x |",
-                    scheme.heading(),
-                    last.threads,
-                    self.star(last.threads),
-                    mode.name(),
-                    t,
-                    mean_after_first(&self.rows, scheme, mode, |r| r.ic_samples as f64),
-                    mean_after_first(&self.rows, scheme, mode, |r| r.removed as f64),
-                    last.records,
-                    last.nodes,
-                    last.bytes() as f64 / 1024.0,
-                    100.0 * mean_after_first(&self.rows, scheme, mode, |r| r.error),
-                    100.0 * max_e,
-                    fresh_t / t
-                );
-            }
-        }
-        if !self.sweep.is_empty() {
-            let h = self.strip_scheme.heading();
-            let fresh_t =
-                mean_after_first(&self.rows, self.strip_scheme, Mode::Fresh, |r| r.seconds);
-            let fresh_e = mean_after_first(&self.rows, self.strip_scheme, Mode::Fresh, |r| r.error);
-            let _ = writeln!(
-                md,
-                "\n## Removal's tolerance ({h}, {} threads{}; means over frames 1..{})\n\n\
-                 The tolerance is the change of light, as a fraction, that a record may have \
-                 taken from the block's motion before it goes. A fresh cache: {fresh_t:.3} s a \
-                 frame, error {:.2}%.\n\n\
-                 | tolerance | seconds | IC samples | removed | records (last) | error mean | error max | time vs fresh |\n\
-                 |---:|---:|---:|---:|---:|---:|---:|---:|",
-                self.config.threads_of(self.strip_scheme),
-                self.star(self.config.threads_of(self.strip_scheme)),
-                n - 1,
-                100.0 * fresh_e
-            );
-            for (tolerance, rows) in self.sweep_rows() {
-                let after: Vec<&Row> = rows.into_iter().filter(|r| r.frame > 0).collect();
-                let mean = |f: &dyn Fn(&Row) -> f64| {
-                    after.iter().map(|r| f(r)).sum::<f64>() / after.len().max(1) as f64
-                };
-                let t = mean(&|r| r.seconds);
-                let _ = writeln!(
-                    md,
-                    "| {:.3} ({}a) | {t:.3} | {:.0} | {:.0} | {} | {:.2}% | {:.2}% | {:.2}x |",
-                    tolerance,
-                    tolerance / self.config.settings.accuracy,
-                    mean(&|r| r.ic_samples as f64),
-                    mean(&|r| r.removed as f64),
-                    after.last().map_or(0, |r| r.records),
-                    100.0 * mean(&|r| r.error),
-                    100.0 * after.iter().map(|r| r.error).fold(0.0, f64::max),
-                    fresh_t / t
-                );
-            }
-        }
-        let _ = writeln!(md, "\n## Checks\n");
-        let _ = writeln!(md, "| claim | holds | measured |\n|---|---|---|");
-        for (claim, ok, detail) in self.checks() {
-            let _ = writeln!(
-                md,
-                "| {claim} | {} | {detail} |",
-                if ok { "yes" } else { "**no**" }
-            );
-        }
-        let _ = writeln!(md, "\n## Every frame with removal: seconds / error\n");
-        let mut head = String::from("| frame |");
-        let mut rule = String::from("|---:|");
-        for &scheme in &self.config.schemes {
-            let _ = write!(head, " {} |", scheme.heading());
-            rule.push_str("---:|");
-        }
-        let _ = writeln!(md, "{head}\n{rule}");
-        for i in 0..n {
-            let mut line = format!("| {i} |");
-            for &scheme in &self.config.schemes {
-                if let Some(r) = self.rows_of(scheme, Mode::Removal).find(|r| r.frame == i) {
-                    let _ = write!(line, " {:.3} s / {:.2}% |", r.seconds, 100.0 * r.error);
+                let rows: Vec<&Row> = self.rows_of(scheme, mode).collect();
+                if rows.iter().any(|r| r.frame > 0) {
+                    let label = scheme.heading().to_owned();
+                    summaries.push(Summary {
+                        label,
+                        mode,
+                        rows,
+                        fresh_seconds,
+                    });
                 }
             }
-            let _ = writeln!(md, "{line}");
         }
-        let _ = writeln!(
+        let last = |s: &Summary| s.last().cloned().expect("a frame after the first");
+        let t = Table::new()
+            .md("scheme", |s: &Summary| s.label.clone())
+            .left()
+            .md("threads", |s| {
+                let t = last(s).threads;
+                format!("{t}{}", self.star(t))
+            })
+            .md("mode", |s| s.mode.name().to_owned())
+            .left()
+            .md("seconds", |s| format!("{:.3}", s.mean(|r| r.seconds)))
+            .md("IC samples", |s| {
+                format!("{:.0}", s.mean(|r| r.ic_samples as f64))
+            })
+            .md("removed", |s| {
+                format!("{:.0}", s.mean(|r| r.removed as f64))
+            })
+            .md("records (last)", |s| last(s).records.to_string())
+            .md("nodes (last)", |s| last(s).nodes.to_string())
+            .md("memory est. (last)", |s| {
+                format!("{:.0} KiB", last(s).bytes() as f64 / 1024.0)
+            })
+            .md("error mean", |s| pct(s.mean(|r| r.error)))
+            .md("error max", |s| pct(s.max_error()))
+            .md("time vs fresh", |s| {
+                format!("{:.2}x", s.fresh_seconds / s.mean(|r| r.seconds))
+            });
+        format!(
+            "## Frames after the first (means over frames 1..{})\n\n{}",
+            self.config.frames - 1,
+            t.markdown(&summaries)
+        )
+    }
+
+    /// The removal mode at each tolerance of the sweep.
+    fn sweep_markdown(&self) -> String {
+        if self.sweep.is_empty() {
+            return String::new();
+        }
+        let scheme = self.strip_scheme;
+        let fresh_seconds = self.mean(scheme, Mode::Fresh, |r| r.seconds);
+        let fresh_error = self.mean(scheme, Mode::Fresh, |r| r.error);
+        let a = self.config.settings.accuracy;
+        let summaries: Vec<Summary> = self
+            .sweep_rows()
+            .into_iter()
+            .map(|(tolerance, rows)| Summary {
+                label: format!("{tolerance:.3} ({}a)", tolerance / a),
+                mode: Mode::Removal,
+                rows,
+                fresh_seconds,
+            })
+            .collect();
+        let t = Table::new()
+            .md("tolerance", |s: &Summary| s.label.clone())
+            .md("seconds", |s| format!("{:.3}", s.mean(|r| r.seconds)))
+            .md("IC samples", |s| {
+                format!("{:.0}", s.mean(|r| r.ic_samples as f64))
+            })
+            .md("removed", |s| {
+                format!("{:.0}", s.mean(|r| r.removed as f64))
+            })
+            .md("records (last)", |s| {
+                s.last().map_or(0, |r| r.records).to_string()
+            })
+            .md("error mean", |s| pct(s.mean(|r| r.error)))
+            .md("error max", |s| pct(s.max_error()))
+            .md("time vs fresh", |s| {
+                format!("{:.2}x", s.fresh_seconds / s.mean(|r| r.seconds))
+            });
+        let threads = self.config.threads_of(scheme);
+        format!(
+            "\n## Removal's tolerance ({}, {threads} threads{}; means over frames 1..{})\n\n\
+             The tolerance is the change of light, as a fraction, that a record may have \
+             taken from the block's motion before it goes. A fresh cache: {fresh_seconds:.3} s a \
+             frame, error {}.\n\n{}",
+            scheme.heading(),
+            self.star(threads),
+            self.config.frames - 1,
+            pct(fresh_error),
+            t.markdown(&summaries)
+        )
+    }
+
+    /// `dynamic.md`'s body.
+    pub fn markdown(&self) -> String {
+        let mut md = self.intro();
+        md.push_str(&self.modes_markdown());
+        md.push_str(&self.sweep_markdown());
+        let _ = write!(
             md,
-            "\n`dynamic.png`: time and error per frame. `dynamic-strip.png`: frames {} of the \
+            "\n## Checks\n\n{}\n## Every frame with removal: seconds / error\n\n",
+            Check::markdown(&self.checks(), false)
+        );
+        let mut t = Table::new().md("frame", |i: &usize| i.to_string());
+        for &scheme in &self.config.schemes {
+            t = t.md(scheme.heading(), move |&i| {
+                self.rows_of(scheme, Mode::Removal)
+                    .find(|r| r.frame == i)
+                    .map_or(String::new(), |r| {
+                        format!("{:.3} s / {}", r.seconds, pct(r.error))
+                    })
+            });
+        }
+        let frames: Vec<usize> = (0..self.config.frames).collect();
+        let kept: Vec<String> = self.strip.iter().map(|(i, ..)| i.to_string()).collect();
+        let _ = write!(
+            md,
+            "{}\n`dynamic.png`: time and error per frame. `dynamic-strip.png`: frames {} of the \
              strip's scheme with removal (top row), stale (middle) and the reference (bottom).\n\n\
-             `*`: oversubscribed (more threads than the {} cores).",
-            self.strip
-                .iter()
-                .map(|(i, ..)| i.to_string())
-                .collect::<Vec<_>>()
-                .join(", "),
+             `*`: oversubscribed (more threads than the {} cores).\n",
+            t.markdown(&frames),
+            kept.join(", "),
             self.machine.cores
         );
         md
@@ -902,12 +957,7 @@ impl Dynamic {
             legend,
             ..Panel::default()
         };
-        let threads: Vec<usize> = self
-            .config
-            .schemes
-            .iter()
-            .map(|&x| self.config.threads_of(x))
-            .collect();
+        let threads = self.config.thread_counts();
         Figure {
             header: vec![
                 format!(
@@ -970,31 +1020,26 @@ impl Dynamic {
     }
 
     /// Writes `dynamic.csv`, `dynamic-sweep.csv`, `dynamic.md`, `dynamic.png`, `dynamic.svg` and
-    /// `dynamic-strip.png`.
+    /// Writes `dynamic.csv`, `dynamic-sweep.csv`, `dynamic.md`, `dynamic.png`, `dynamic.svg` and
+    /// `dynamic-strip.png`, each with the provenance of `command`.
     pub fn write(&self, dir: &Path, command: &str) -> Result<(), String> {
-        std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
-        write_file(&dir.join("dynamic.csv"), &self.csv())?;
-        write_file(&dir.join("dynamic.md"), &self.markdown(command))?;
-        write_file(&dir.join("dynamic-sweep.csv"), &self.sweep_csv())?;
+        let provenance = Provenance::new(command, &self.machine, &self.config.thread_counts(), &[]);
+        let out = Output::new(dir, &provenance)?;
+        out.csv("dynamic.csv", &self.csv())?;
+        let title = "A scene that moves: removal against a fresh and a stale cache";
+        out.markdown("dynamic.md", title, &self.markdown())?;
+        out.csv("dynamic-sweep.csv", &self.sweep_csv())?;
         let figure = self.figure();
-        figure.write_png(&dir.join("dynamic.png"))?;
-        figure.write_svg(&dir.join("dynamic.svg"))?;
+        figure.write_png(&out.path("dynamic.png"))?;
+        figure.write_svg(&out.path("dynamic.svg"))?;
         if let Some(strip) = self.strip_image() {
-            let path = dir.join("dynamic-strip.png");
+            let path = out.path("dynamic-strip.png");
             strip
                 .save(&path)
                 .map_err(|e| format!("{}: {e}", path.display()))?;
         }
         Ok(())
     }
-}
-
-fn std_dev(v: &[f64]) -> f64 {
-    if v.len() < 2 {
-        return 0.0;
-    }
-    let m = v.iter().sum::<f64>() / v.len() as f64;
-    (v.iter().map(|x| (x - m) * (x - m)).sum::<f64>() / (v.len() - 1) as f64).sqrt()
 }
 
 #[cfg(test)]

@@ -1,17 +1,18 @@
-//! `wfic reproduce table1` and `wfic reproduce animation`: arguments, progress bar, output.
+//! `wfic reproduce ...` and `wfic compare ...`: arguments, progress, output.
 
-use super::animation::{self, AnimationConfig};
-use super::distributed::{self, DistributedConfig};
-use super::dynamic::{self, DynamicConfig};
-use super::table1::{self, Table1Config};
-use crate::Machine;
+use crate::animation::{self, AnimationConfig};
+use crate::distributed::{self, DistributedConfig};
+use crate::dynamic::{self, DynamicConfig};
+use crate::harness::measure::Progress;
+use crate::harness::provenance::command_line;
+use crate::harness::{Check, Machine};
+use crate::radiance::{self, RadianceConfig};
+use crate::table1::{self, Table1Config};
+use std::path::PathBuf;
 use wfic::cache::Scheme;
 use wfic_render::RenderSettings;
-use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
-use std::io::IsTerminal;
-use std::path::PathBuf;
 
-/// Primary rays per pixel in the experiments (see `paper-notes.md`, "Table 1").
+/// Primary rays per pixel in the experiments.
 pub const SPP: u32 = 4;
 /// Light samples per primary hit in the experiments: with [`SPP`], 8 shadow rays per pixel.
 pub const LIGHT_SAMPLES: u32 = 2;
@@ -26,17 +27,46 @@ pub enum ReproduceCommand {
     /// Figures 2 and 3: the 360° orbit reusing the cache across frames, per scheme. Writes
     /// animation-SCENE.csv, .md, .png and .svg.
     Animation(AnimationArgs),
-    /// A scene that moves (issue 13): `cornell-moving`'s short block slides across the floor;
-    /// each scheme renders every frame with removal of the records the block's swept bounds
-    /// touch, with a fresh cache, and with stale records, each against the frame's brute-force
-    /// image. Writes dynamic.md, dynamic.csv, dynamic.png, dynamic.svg and dynamic-strip.png.
+    /// A scene that moves: `cornell-moving`'s short block slides across the floor; each scheme
+    /// renders every frame with removal of the records the block's swept bounds touch, with a
+    /// fresh cache, and with stale records, each against the frame's brute-force image. Writes
+    /// dynamic.md, dynamic.csv, dynamic.png, dynamic.svg and dynamic-strip.png.
     Dynamic(DynamicArgs),
-    /// One frame over MPI ranks (issue 14; wfic built with `--features mpi`, OpenMPI
-    /// installed): 1 rank x 2 threads, 2 ranks x 1 thread sharing records and sharing nothing,
-    /// 4 ranks (oversubscribed), a sweep of the batch size, and Radiance's `rtrace -n 1` and `-n
-    /// 2` on one ambient file. Writes distributed.md, distributed.csv, distributed.png and
+    /// One frame over MPI ranks (wfic built with `--features mpi`, OpenMPI installed): 1 rank x
+    /// 2 threads, 2 ranks x 1 thread sharing records and sharing nothing, 4 ranks
+    /// (oversubscribed on 2 cores), a sweep of the batch size, and Radiance's `rtrace -n 1` and
+    /// `-n 2` on one ambient file. Writes distributed.md, distributed.csv, distributed.png and
     /// distributed.svg.
     Distributed(DistributedArgs),
+}
+
+/// Where the results go, and whether progress is shown: every experiment's.
+#[derive(Clone, Debug, clap::Args)]
+pub struct OutputArgs {
+    /// Output directory.
+    #[arg(long)]
+    pub out_dir: PathBuf,
+    /// No progress bar.
+    #[arg(long)]
+    pub quiet: bool,
+}
+
+/// The image size options.
+#[derive(Clone, Debug, clap::Args)]
+pub struct SizeArgs {
+    /// Image width (default: the experiment's, smaller with --quick).
+    #[arg(long)]
+    pub width: Option<u32>,
+    /// Image height (default: as the width).
+    #[arg(long)]
+    pub height: Option<u32>,
+}
+
+impl SizeArgs {
+    /// The size, `width` standing in for a missing width; refused when empty.
+    pub fn get(&self, width: u32) -> Result<(u32, u32), String> {
+        size(self.width.unwrap_or(width), self.height)
+    }
 }
 
 /// Arguments of `wfic reproduce distributed`.
@@ -48,12 +78,9 @@ pub struct DistributedArgs {
     /// A smoke run: 96 x 96, 128 rays a record, one run a job, three batch sizes.
     #[arg(long)]
     pub quick: bool,
-    /// Image width (default 256, quick 96).
-    #[arg(long)]
-    pub width: Option<u32>,
-    /// Image height (default: as the width).
-    #[arg(long)]
-    pub height: Option<u32>,
+    /// Image size (default 256, quick 96).
+    #[command(flatten)]
+    pub size: SizeArgs,
     /// Hemisphere rays per record (default 512, quick 128).
     #[arg(long)]
     pub rays_per_record: Option<u32>,
@@ -82,12 +109,9 @@ pub struct DistributedArgs {
     /// none).
     #[arg(long)]
     pub frames: Option<usize>,
-    /// Output directory.
-    #[arg(long)]
-    pub out_dir: PathBuf,
-    /// No progress bar.
-    #[arg(long)]
-    pub quiet: bool,
+    /// Output.
+    #[command(flatten)]
+    pub output: OutputArgs,
 }
 
 /// Arguments of `wfic reproduce dynamic`.
@@ -116,25 +140,19 @@ pub struct DynamicArgs {
     /// Schemes (default: tra, lck, lw, wf).
     #[arg(long, value_parser = crate::render_cli::scheme_parser(), value_delimiter = ',')]
     pub schemes: Vec<Scheme>,
-    /// Image width (default 128, quick 64).
-    #[arg(long)]
-    pub width: Option<u32>,
-    /// Image height (default: as the width).
-    #[arg(long)]
-    pub height: Option<u32>,
+    /// Image size (default 128, quick 64).
+    #[command(flatten)]
+    pub size: SizeArgs,
     /// Sampling (with --quick, the primary rays and the rays per record are the quick ones
     /// unless given).
     #[command(flatten)]
     pub sampling: SamplingArgs,
-    /// Output directory.
-    #[arg(long)]
-    pub out_dir: PathBuf,
-    /// No progress bar.
-    #[arg(long)]
-    pub quiet: bool,
+    /// Output.
+    #[command(flatten)]
+    pub output: OutputArgs,
 }
 
-/// The sampling options both experiments share.
+/// The sampling options the experiments share.
 #[derive(Clone, Debug, clap::Args)]
 pub struct SamplingArgs {
     /// Hemisphere rays per irradiance record.
@@ -170,9 +188,6 @@ impl SamplingArgs {
 /// Arguments of `wfic reproduce table1`.
 #[derive(Clone, Debug, clap::Args)]
 pub struct Table1Args {
-    /// Output directory.
-    #[arg(long)]
-    pub out_dir: PathBuf,
     /// Smaller images and fewer runs (160x160, 3 runs, 11 for the compared columns): a few
     /// minutes on 2 cores.
     #[arg(long)]
@@ -193,23 +208,21 @@ pub struct Table1Args {
     /// (default: 11 with --quick, 15 without; at least --runs).
     #[arg(long)]
     pub paired_runs: Option<usize>,
-    /// Image width (default: 160 with --quick, 320 without).
-    #[arg(long)]
-    pub width: Option<u32>,
-    /// Image height (default: as the width).
-    #[arg(long)]
-    pub height: Option<u32>,
+    /// Image size (default 320, quick 160).
+    #[command(flatten)]
+    pub size: SizeArgs,
     /// Sampling.
     #[command(flatten)]
     pub sampling: SamplingArgs,
-    /// Render the speed-up's controls (WF on one thread and two TRA frames at once, every paired
-    /// round) and the table that sets WF's speed-up against the machine (default: true, false
-    /// with --quick, where they would double the run).
+    /// Render the machine control (WF on one thread and two TRA frames at once, every paired
+    /// round) and the table that sets WF's speed-up against the machine (default: true, with
+    /// --quick too: a speed-up the busy machine cannot reach then reads "the machine's", not
+    /// NO).
     #[arg(long)]
     pub controls: Option<bool>,
-    /// No progress bar.
-    #[arg(long)]
-    pub quiet: bool,
+    /// Output.
+    #[command(flatten)]
+    pub output: OutputArgs,
 }
 
 /// Arguments of `wfic reproduce animation`.
@@ -227,42 +240,15 @@ pub struct AnimationArgs {
     /// Schemes (default: tra, lck, lck-rw, lw, wf, wf-discard).
     #[arg(long, value_parser = crate::render_cli::scheme_parser(), value_delimiter = ',')]
     pub schemes: Vec<Scheme>,
-    /// Image width.
-    #[arg(long, default_value_t = 160)]
-    pub width: u32,
-    /// Image height (default: as the width).
-    #[arg(long)]
-    pub height: Option<u32>,
+    /// Image size (default 160).
+    #[command(flatten)]
+    pub size: SizeArgs,
     /// Sampling.
     #[command(flatten)]
     pub sampling: SamplingArgs,
-    /// Output directory.
-    #[arg(long)]
-    pub out_dir: PathBuf,
-    /// No progress bar.
-    #[arg(long)]
-    pub quiet: bool,
-}
-
-fn bar(len: usize, quiet: bool) -> ProgressBar {
-    if quiet || !std::io::stderr().is_terminal() {
-        return ProgressBar::hidden();
-    }
-    let bar = ProgressBar::with_draw_target(Some(len as u64), ProgressDrawTarget::stderr());
-    if let Ok(style) = ProgressStyle::with_template(
-        "[{elapsed_precise}] {wide_bar} {pos}/{len} frames (eta {eta}) {msg}",
-    ) {
-        bar.set_style(style);
-    }
-    bar
-}
-
-/// The command line, for the output's provenance.
-fn command_line() -> String {
-    let args: Vec<String> = std::env::args().collect();
-    let mut words = vec!["wfic".to_owned()];
-    words.extend(args.into_iter().skip(1));
-    words.join(" ")
+    /// Output.
+    #[command(flatten)]
+    pub output: OutputArgs,
 }
 
 fn size(width: u32, height: Option<u32>) -> Result<(u32, u32), String> {
@@ -273,232 +259,187 @@ fn size(width: u32, height: Option<u32>) -> Result<(u32, u32), String> {
     Ok((width, h))
 }
 
+/// `value` when given, else `quick` or `full` as `--quick` says.
+fn or_quick<T>(value: Option<T>, quick: bool, (q, full): (T, T)) -> T {
+    value.unwrap_or(if quick { q } else { full })
+}
+
+/// A list argument, or its default (quick or full) when empty.
+fn list_or<T: Clone>(given: &[T], quick: bool, (q, full): (&[T], &[T])) -> Vec<T> {
+    if !given.is_empty() {
+        given.to_vec()
+    } else if quick {
+        q.to_vec()
+    } else {
+        full.to_vec()
+    }
+}
+
+/// Prints the checks as `yes claim: figures` lines.
+fn print_checks(checks: &[Check]) {
+    for c in checks {
+        println!("{:<4} {}: {}", c.verdict.plain(), c.claim, c.detail);
+    }
+}
+
+fn table1(a: Table1Args, machine: &Machine) -> Result<(), String> {
+    let (w, h) = a.size.get(if a.quick { 160 } else { 320 })?;
+    let runs = or_quick(a.runs, a.quick, (3, 5));
+    let mut config = Table1Config::paper(w, h, runs);
+    // An explicit --paired-runs below --runs is refused by `table1::run`; the default never is.
+    config.paired_runs = a
+        .paired_runs
+        .unwrap_or_else(|| runs.max(if a.quick { 11 } else { 15 }));
+    config.settings = a.sampling.settings((w, h))?;
+    if !a.scenes.is_empty() {
+        config.scenes = a.scenes.clone();
+    }
+    if !a.schemes.is_empty() {
+        config.schemes = a.schemes.clone();
+    }
+    config.threads = a.threads.clone();
+    config.controls = a.controls.unwrap_or(true);
+    println!("{}", machine.banner(&config.thread_counts()));
+    let mut progress = Progress::new(config.total_frames(), a.output.quiet);
+    let t = table1::run(&config, machine, &mut |label| progress.step(label))?;
+    progress.finish();
+    t.write(&a.output.out_dir, &command_line())?;
+    for c in t.checks() {
+        println!(
+            "{:<11} {:<58} {:<4} {}",
+            c.scene,
+            c.claim,
+            c.verdict.plain(),
+            c.detail
+        );
+    }
+    println!(
+        "wrote {}/table1.md, table1.csv, figure1.png, figure1.svg ({:.0} s)",
+        a.output.out_dir.display(),
+        t.seconds
+    );
+    Ok(())
+}
+
+fn distributed(a: DistributedArgs, machine: &Machine) -> Result<(), String> {
+    let (w, h) = a.size.get(if a.quick { 96 } else { 256 })?;
+    let rays = or_quick(a.rays_per_record, a.quick, (128, 512));
+    if rays == 0 || a.light_samples == 0 {
+        return Err("--rays-per-record and --light-samples must be at least 1".to_owned());
+    }
+    if !(a.accuracy.is_finite() && a.accuracy > 0.0) {
+        return Err(format!("--accuracy {} is not a number above 0", a.accuracy));
+    }
+    let settings = RenderSettings::new(w, h)
+        .rays_per_record(rays)
+        .light_samples(a.light_samples)
+        .accuracy(a.accuracy)
+        .quiet(true);
+    let config = DistributedConfig {
+        scene: a.scene.clone(),
+        settings,
+        runs: or_quick(a.runs, a.quick, (1, 3)),
+        batches: list_or(
+            &a.batches,
+            a.quick,
+            (&[16, 256, 4096], &[4, 16, 64, 256, 1024, 4096]),
+        ),
+        batch_ms: a.batch_ms,
+        batch_records: a.batch_records,
+        stride: 2,
+        radiance_resolution: 128,
+        radiance: !a.no_radiance,
+        animation_frames: or_quick(a.frames, a.quick, (4, 12)),
+    };
+    println!("{}", machine.banner_with_ranks(&[], &config.rank_counts()));
+    let quiet = a.output.quiet;
+    let mut progress = Progress::new(config.jobs(), quiet).echo(quiet);
+    let start = std::time::Instant::now();
+    let out_dir = &a.output.out_dir;
+    let d = distributed::run(&config, machine, out_dir, &mut |label| progress.step(label))?;
+    progress.finish();
+    d.write(out_dir, &command_line())?;
+    print_checks(&d.checks());
+    println!(
+        "wrote {}/distributed.md, distributed.csv, distributed.png, distributed.svg ({:.0} s)",
+        out_dir.display(),
+        start.elapsed().as_secs_f64()
+    );
+    Ok(())
+}
+
+fn dynamic(a: DynamicArgs, machine: &Machine) -> Result<(), String> {
+    let (w, h) = a.size.get(if a.quick { 64 } else { 128 })?;
+    let mut sampling = a.sampling.clone();
+    if a.quick {
+        sampling.spp = 1;
+        sampling.rays_per_record = sampling.rays_per_record.min(128);
+    }
+    let all = [Scheme::Tra, Scheme::Lck, Scheme::Lw, Scheme::Wf];
+    let config = DynamicConfig {
+        scene: a.scene.clone(),
+        frames: or_quick(a.frames, a.quick, (8, 24)),
+        threads: a.threads,
+        schemes: list_or(&a.schemes, false, (&all, &all)),
+        settings: sampling.settings((w, h))?.quiet(true),
+        passes: or_quick(a.passes, a.quick, (1, 3)),
+        sweep: list_or(&a.sweep, a.quick, (&[4.0], &[0.5, 2.0, 4.0, 8.0])),
+    };
+    println!("{}", machine.banner(&config.thread_counts()));
+    let mut progress = Progress::new(config.total_frames(), a.output.quiet);
+    let start = std::time::Instant::now();
+    let d = dynamic::run(&config, machine, &mut |label| progress.step(label))?;
+    progress.finish();
+    d.write(&a.output.out_dir, &command_line())?;
+    print_checks(&d.checks());
+    println!(
+        "wrote {}/dynamic.md, dynamic.csv, dynamic.png, dynamic.svg, dynamic-strip.png ({:.0} s)",
+        a.output.out_dir.display(),
+        start.elapsed().as_secs_f64()
+    );
+    Ok(())
+}
+
+fn animation(a: AnimationArgs, machine: &Machine) -> Result<(), String> {
+    let (w, h) = a.size.get(160)?;
+    let config = AnimationConfig {
+        scene: a.scene.clone(),
+        frames: a.frames,
+        threads: a.threads,
+        schemes: list_or(&a.schemes, false, (&Scheme::CACHED, &Scheme::CACHED)),
+        settings: a.sampling.settings((w, h))?,
+    };
+    println!("{}", machine.banner(&config.thread_counts()));
+    let frames = config.frames * config.schemes.len();
+    let mut progress = Progress::new(frames, a.output.quiet);
+    let anim = animation::run(&config, machine, &mut |label| progress.step(label))?;
+    progress.finish();
+    anim.write(&a.output.out_dir, &command_line())?;
+    for o in &anim.orbits {
+        println!(
+            "{:<11} {:>2} threads: total {:>7.2} s, {:>7} IC samples",
+            o.scheme.name(),
+            o.threads,
+            o.total_seconds(),
+            o.total_samples()
+        );
+    }
+    println!(
+        "wrote {}/animation-{}.csv, .md, .png, .svg",
+        a.output.out_dir.display(),
+        a.scene
+    );
+    Ok(())
+}
+
 /// Runs `wfic reproduce ...`.
 pub fn run(command: ReproduceCommand) -> Result<(), String> {
     let machine = Machine::detect();
     match command {
-        ReproduceCommand::Table1(a) => {
-            let (w, h) = size(a.width.unwrap_or(if a.quick { 160 } else { 320 }), a.height)?;
-            let runs = a.runs.unwrap_or(if a.quick { 3 } else { 5 });
-            let mut config = Table1Config::paper(w, h, runs);
-            // An explicit --paired-runs below --runs is refused by `table1::run`; the default
-            // never is.
-            config.paired_runs = a
-                .paired_runs
-                .unwrap_or_else(|| runs.max(if a.quick { 11 } else { 15 }));
-            config.settings = a.sampling.settings((w, h))?;
-            if !a.scenes.is_empty() {
-                config.scenes = a.scenes.clone();
-            }
-            if !a.schemes.is_empty() {
-                config.schemes = a.schemes.clone();
-            }
-            config.threads = a.threads.clone();
-            config.controls = a.controls.unwrap_or(!a.quick);
-            let mut threads = vec![1];
-            threads.extend(&config.threads);
-            println!("{}", machine.banner(&threads));
-            let pb = bar(config.total_frames(), a.quiet);
-            let mut first = true;
-            let t = table1::run(&config, &machine, &mut |label| {
-                if !first {
-                    pb.inc(1);
-                }
-                first = false;
-                pb.set_message(label.to_owned());
-            })?;
-            pb.finish_and_clear();
-            t.write(&a.out_dir, &command_line())?;
-            for c in t.checks() {
-                println!(
-                    "{:<11} {:<58} {:<4} {}",
-                    c.scene,
-                    c.claim,
-                    c.verdict.text().trim_matches('*'),
-                    c.detail
-                );
-            }
-            println!(
-                "wrote {}/table1.md, table1.csv, figure1.png, figure1.svg ({:.0} s)",
-                a.out_dir.display(),
-                t.seconds
-            );
-            Ok(())
-        }
-        ReproduceCommand::Distributed(a) => {
-            let (w, h) = size(a.width.unwrap_or(if a.quick { 96 } else { 256 }), a.height)?;
-            let rays = a.rays_per_record.unwrap_or(if a.quick { 128 } else { 512 });
-            if rays == 0 || a.light_samples == 0 {
-                return Err("--rays-per-record and --light-samples must be at least 1".to_owned());
-            }
-            if !(a.accuracy.is_finite() && a.accuracy > 0.0) {
-                return Err(format!("--accuracy {} is not a number above 0", a.accuracy));
-            }
-            let settings = RenderSettings::new(w, h)
-                .rays_per_record(rays)
-                .light_samples(a.light_samples)
-                .accuracy(a.accuracy)
-                .quiet(true);
-            let config = DistributedConfig {
-                scene: a.scene.clone(),
-                settings,
-                runs: a.runs.unwrap_or(if a.quick { 1 } else { 3 }),
-                batches: if !a.batches.is_empty() {
-                    a.batches.clone()
-                } else if a.quick {
-                    vec![16, 256, 4096]
-                } else {
-                    vec![4, 16, 64, 256, 1024, 4096]
-                },
-                batch_ms: a.batch_ms,
-                batch_records: a.batch_records,
-                stride: 2,
-                radiance_resolution: 128,
-                radiance: !a.no_radiance,
-                animation_frames: a.frames.unwrap_or(if a.quick { 4 } else { 12 }),
-            };
-            println!("{}", machine.banner(&[1, 2, 4]));
-            let animation = if config.animation_frames > 1 { 4 } else { 0 };
-            let jobs = config.runs * (4 + config.batches.len())
-                + 1
-                + animation
-                + usize::from(config.radiance);
-            let pb = bar(jobs, a.quiet);
-            let start = std::time::Instant::now();
-            let mut first = true;
-            let d = distributed::run(&config, &machine, &a.out_dir, &mut |label| {
-                if !first {
-                    pb.inc(1);
-                }
-                first = false;
-                if a.quiet || !std::io::stderr().is_terminal() {
-                    if !a.quiet {
-                        eprintln!("{label}");
-                    }
-                } else {
-                    pb.set_message(label.to_owned());
-                }
-            })?;
-            pb.finish_and_clear();
-            d.write(&a.out_dir, &command_line())?;
-            for (claim, ok, detail) in d.checks() {
-                println!("{:<4} {claim}: {detail}", if ok { "yes" } else { "NO" });
-            }
-            println!(
-                "wrote {}/distributed.md, distributed.csv, distributed.png, distributed.svg ({:.0} s)",
-                a.out_dir.display(),
-                start.elapsed().as_secs_f64()
-            );
-            Ok(())
-        }
-        ReproduceCommand::Dynamic(a) => {
-            let (w, h) = size(a.width.unwrap_or(if a.quick { 64 } else { 128 }), a.height)?;
-            let mut sampling = a.sampling.clone();
-            if a.quick {
-                sampling.spp = 1;
-                sampling.rays_per_record = sampling.rays_per_record.min(128);
-            }
-            let settings = sampling.settings((w, h))?.quiet(true);
-            let schemes = if a.schemes.is_empty() {
-                vec![Scheme::Tra, Scheme::Lck, Scheme::Lw, Scheme::Wf]
-            } else {
-                a.schemes.clone()
-            };
-            let config = DynamicConfig {
-                scene: a.scene.clone(),
-                frames: a.frames.unwrap_or(if a.quick { 8 } else { 24 }),
-                threads: a.threads,
-                schemes,
-                settings,
-                passes: a.passes.unwrap_or(if a.quick { 1 } else { 3 }),
-                sweep: if !a.sweep.is_empty() {
-                    a.sweep.clone()
-                } else if a.quick {
-                    vec![4.0]
-                } else {
-                    vec![0.5, 2.0, 4.0, 8.0]
-                },
-            };
-            let threads: Vec<usize> = config
-                .schemes
-                .iter()
-                .map(|s| config.threads_of(*s))
-                .collect();
-            println!("{}", machine.banner(&threads));
-            let renders = 1
-                + (dynamic::Mode::ALL.len() + config.passes.saturating_sub(1))
-                    * config.schemes.len()
-                + config.passes * config.sweep.len();
-            let pb = bar(config.frames * renders, a.quiet);
-            let mut first = true;
-            let start = std::time::Instant::now();
-            let d = dynamic::run(&config, &machine, &mut |label| {
-                if !first {
-                    pb.inc(1);
-                }
-                first = false;
-                pb.set_message(label.to_owned());
-            })?;
-            pb.finish_and_clear();
-            d.write(&a.out_dir, &command_line())?;
-            for (claim, ok, detail) in d.checks() {
-                println!("{:<4} {claim}: {detail}", if ok { "yes" } else { "NO" });
-            }
-            println!(
-                "wrote {}/dynamic.md, dynamic.csv, dynamic.png, dynamic.svg, dynamic-strip.png ({:.0} s)",
-                a.out_dir.display(),
-                start.elapsed().as_secs_f64()
-            );
-            Ok(())
-        }
-        ReproduceCommand::Animation(a) => {
-            let (w, h) = size(a.width, a.height)?;
-            let settings = a.sampling.settings((w, h))?;
-            let schemes = if a.schemes.is_empty() {
-                Scheme::CACHED.to_vec()
-            } else {
-                a.schemes.clone()
-            };
-            let config = AnimationConfig {
-                scene: a.scene.clone(),
-                frames: a.frames,
-                threads: a.threads,
-                schemes,
-                settings,
-            };
-            let threads: Vec<usize> = config
-                .schemes
-                .iter()
-                .map(|s| config.threads_of(*s))
-                .collect();
-            println!("{}", machine.banner(&threads));
-            let pb = bar(config.frames * config.schemes.len(), a.quiet);
-            let mut first = true;
-            let anim = animation::run(&config, &machine, &mut |label| {
-                if !first {
-                    pb.inc(1);
-                }
-                first = false;
-                pb.set_message(label.to_owned());
-            })?;
-            pb.finish_and_clear();
-            anim.write(&a.out_dir, &command_line())?;
-            for o in &anim.orbits {
-                println!(
-                    "{:<11} {:>2} threads: total {:>7.2} s, {:>7} IC samples",
-                    o.scheme.name(),
-                    o.threads,
-                    o.total_seconds(),
-                    o.total_samples()
-                );
-            }
-            println!(
-                "wrote {}/animation-{}.csv, .md, .png, .svg",
-                a.out_dir.display(),
-                a.scene
-            );
-            Ok(())
-        }
+        ReproduceCommand::Table1(a) => table1(a, &machine),
+        ReproduceCommand::Distributed(a) => distributed(a, &machine),
+        ReproduceCommand::Dynamic(a) => dynamic(a, &machine),
+        ReproduceCommand::Animation(a) => animation(a, &machine),
     }
 }
 
@@ -518,19 +459,16 @@ pub struct RadianceArgs {
     /// Built-in scenes, comma-separated (`all`: every one).
     #[arg(long, value_delimiter = ',', required = true)]
     pub scene: Vec<String>,
-    /// A smoke run: 128 x 128, 256 rays per record, a short sweep.
+    /// A smoke run: 96 x 96, 128 rays per record, a short sweep.
     #[arg(long)]
     pub quick: bool,
     /// Output folder.
     #[arg(long, default_value = "results/radiance")]
     pub out_dir: std::path::PathBuf,
-    /// Image width (default 512, quick 128).
-    #[arg(long)]
-    pub width: Option<u32>,
-    /// Image height (default: the width).
-    #[arg(long)]
-    pub height: Option<u32>,
-    /// Rays per record, `-ad` (default 1024, quick 256).
+    /// Image size (default 256, quick 96).
+    #[command(flatten)]
+    pub size: SizeArgs,
+    /// Rays per record, `-ad` (default 512, quick 128).
     #[arg(long)]
     pub rays_per_record: Option<u32>,
     /// Ward's accuracy, `-aa`.
@@ -548,63 +486,65 @@ pub struct RadianceArgs {
     pub repeats: Option<u32>,
 }
 
+/// The comparison's configuration from its arguments, refusing what cannot run.
+fn radiance_config(a: &RadianceArgs) -> Result<RadianceConfig, String> {
+    let names = wfic_render::scenes::NAMES;
+    let scenes: Vec<String> = if a.scene.iter().any(|s| s == "all") {
+        names.iter().map(|s| s.to_string()).collect()
+    } else {
+        a.scene.clone()
+    };
+    if let Some(s) = scenes
+        .iter()
+        .find(|s| wfic_render::scenes::info(s).is_none())
+    {
+        return Err(format!(
+            "unknown scene `{s}` (expected one of: {}, or all)",
+            names.join(", ")
+        ));
+    }
+    let mut config = if a.quick {
+        RadianceConfig::quick(scenes)
+    } else {
+        RadianceConfig::full(scenes)
+    };
+    if a.size.width.is_some() || a.size.height.is_some() {
+        config.size = a.size.get(config.size.0)?;
+    }
+    if let Some(n) = a.rays_per_record {
+        if n < 16 {
+            return Err("--rays-per-record must be at least 16".to_owned());
+        }
+        config.rays = n;
+    }
+    if let Some(acc) = a.accuracy {
+        if !(acc > 0.0 && acc <= 2.0) {
+            return Err(format!("--accuracy {acc} is not in (0, 2]"));
+        }
+        config.accuracy = acc;
+    }
+    if let Some(r) = a.resolution {
+        if r == 0 {
+            return Err("--resolution must be at least 1".to_owned());
+        }
+        config.resolution = r;
+    }
+    config.keep_work = a.keep_work;
+    if let Some(r) = a.repeats {
+        if r == 0 {
+            return Err("--repeats must be at least 1".to_owned());
+        }
+        config.repeats = r;
+    }
+    Ok(config)
+}
+
 /// Runs `wfic compare ...`.
 pub fn run_compare(command: CompareCommand) -> Result<(), String> {
     match command {
         CompareCommand::Radiance(a) => {
-            let scenes: Vec<String> = if a.scene.iter().any(|s| s == "all") {
-                wfic_render::scenes::NAMES
-                    .iter()
-                    .map(|s| s.to_string())
-                    .collect()
-            } else {
-                a.scene.clone()
-            };
-            for s in &scenes {
-                if wfic_render::scenes::info(s).is_none() {
-                    return Err(format!(
-                        "unknown scene `{s}` (expected one of: {}, or all)",
-                        wfic_render::scenes::NAMES.join(", ")
-                    ));
-                }
-            }
-            let mut config = if a.quick {
-                super::radiance::RadianceConfig::quick(scenes)
-            } else {
-                super::radiance::RadianceConfig::full(scenes)
-            };
-            if let Some(w) = a.width {
-                config.size = size(w, a.height)?;
-            } else if let Some(h) = a.height {
-                config.size = size(config.size.0, Some(h))?;
-            }
-            if let Some(n) = a.rays_per_record {
-                if n < 16 {
-                    return Err("--rays-per-record must be at least 16".to_owned());
-                }
-                config.rays = n;
-            }
-            if let Some(acc) = a.accuracy {
-                if !(acc > 0.0 && acc <= 2.0) {
-                    return Err(format!("--accuracy {acc} is not in (0, 2]"));
-                }
-                config.accuracy = acc;
-            }
-            if let Some(r) = a.resolution {
-                if r == 0 {
-                    return Err("--resolution must be at least 1".to_owned());
-                }
-                config.resolution = r;
-            }
-            config.keep_work = a.keep_work;
-            if let Some(r) = a.repeats {
-                if r == 0 {
-                    return Err("--repeats must be at least 1".to_owned());
-                }
-                config.repeats = r;
-            }
-            let command: Vec<String> = std::env::args().collect();
-            super::radiance::run(&config, &a.out_dir, &command.join(" "))
+            let config = radiance_config(&a)?;
+            radiance::run(&config, &a.out_dir, &command_line())
         }
     }
 }

@@ -1,25 +1,35 @@
 //! Table 1 and Figure 1: every scene rendered with an empty cache, TRA on one thread and each
 //! parallel scheme at each thread count, several runs each (medians reported).
 //!
-//! Order of work: scene by scene (each scene built once, its BVH build not timed); inside a scene,
+//! Schedule: scene by scene (each scene built once, its BVH build not timed); inside a scene,
 //! one untimed warm-up frame, then round by round, every configuration once per round, so slow
 //! drifts of the machine spread over all configurations rather than landing on one. Odd rounds
-//! run the columns in reverse order, so no column always follows the same neighbour.
+//! run the columns in reverse order, so no column always follows the same neighbour. Every
+//! round also renders the machine control ([`Controls`]), before the columns in odd rounds and
+//! after them in even ones.
 //!
-//! The checks compare WF with LCK and LW at 2 threads, where the difference is a fraction of a
-//! percent and one run's noise is a few percent. Those three columns therefore run
-//! [`Table1Config::paired_runs`] rounds (more than the others), and each comparison is made on
-//! the per-round ratios `WF_r / rival_r` (the two frames of a round are seconds apart, so they
-//! share the machine's state): their median, with a distribution-free confidence interval from
-//! order statistics ([`paired_ratio`]).
+//! Analysis: the checks compare WF with LCK and LW at 2 threads, where the difference is a
+//! fraction of a percent and one run's noise is a few percent. Those three columns therefore
+//! run [`Table1Config::paired_runs`] rounds (more than the others), and each comparison is made
+//! on the per-round ratios `WF_r / rival_r` (the two frames of a round are seconds apart, so
+//! they share the machine's state): their median, with a distribution-free confidence interval
+//! from order statistics ([`paired_ratio`]). WF's speed-up over TRA is set against the machine
+//! control ([`SpeedupAnalysis`]).
 
-use super::plot::{Bar, Figure, Line, Panel};
-use super::{median, paper, write_file, Machine};
+use crate::harness::stats::{self, median};
+use crate::harness::table::{star, Table};
+use crate::harness::{Machine, Output, Provenance};
+use crate::paper;
+use crate::plot::{Bar, Figure, Line, Panel};
+use std::fmt::Write as _;
+use std::path::Path;
 use wfic::cache::Scheme;
 use wfic_render::render_with_scheme;
 use wfic_render::{scenes, FrameStats, RenderSettings};
-use std::fmt::Write as _;
-use std::path::Path;
+
+pub use crate::harness::control::{Controls, SpeedupAnalysis, CONTROL_FRAMES, SPEEDUP_GOAL};
+pub use crate::harness::stats::{paired_ratio, PairedRatio};
+pub use crate::harness::{Check, Verdict};
 
 /// What to run.
 #[derive(Clone, Debug, PartialEq)]
@@ -37,7 +47,7 @@ pub struct Table1Config {
     pub paired_runs: usize,
     /// Image size and sampling.
     pub settings: RenderSettings,
-    /// Render the speed-up's controls ([`Controls`]) in every round.
+    /// Render the machine control ([`Controls`]) in every round.
     pub controls: bool,
 }
 
@@ -108,6 +118,13 @@ impl Table1Config {
             .sum();
         self.scenes.len() * (1 + per_scene)
     }
+
+    /// Every thread count of the run, TRA's one first.
+    pub fn thread_counts(&self) -> Vec<usize> {
+        let mut t = vec![1];
+        t.extend(&self.threads);
+        t
+    }
 }
 
 /// The thread count the checks are made at: the 2 real cores of the machine the study targets.
@@ -115,129 +132,6 @@ pub const CHECK_THREADS: usize = 2;
 
 /// The schemes whose [`CHECK_THREADS`] columns the checks compare.
 const PAIRED: [Scheme; 3] = [Scheme::Lck, Scheme::Lw, Scheme::Wf];
-
-/// The speed-up WF should reach over TRA at [`CHECK_THREADS`] threads (issue 11), unless what
-/// keeps it below is measured to be the machine's, not the cache's.
-pub const SPEEDUP_GOAL: f64 = 1.98;
-
-/// Progress calls a round's controls make: WF on one thread, then the TRA twins.
-const CONTROL_FRAMES: usize = 2;
-
-/// What WF's speed-up at [`CHECK_THREADS`] threads is set against, one scene's, rendered in every
-/// round beside the paired columns:
-///
-/// * WF on one thread: what the concurrent structure costs where nobody shares it;
-/// * two TRA frames rendered at the same time, each on a thread and a cache of its own: the
-///   machine's own two-thread throughput on this scene's work with nothing shared at all
-///   (frequency, the shared last-level cache, memory bandwidth, the hypervisor). `2 × TRA /
-///   twins` is the speed-up perfectly divided, unshared work reaches here.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct Controls {
-    /// Scene name.
-    pub scene: String,
-    /// WF on one thread, every round.
-    pub wf_one: Vec<FrameStats>,
-    /// Wall seconds of the two TRA frames rendered at once (start to both done), every round.
-    pub tra_twins: Vec<f64>,
-}
-
-/// Renders two TRA frames at once, each on a thread and a cache of its own; wall seconds.
-fn tra_twins(
-    scene: &wfic_render::Scene,
-    camera: &wfic_render::Camera,
-    settings: &RenderSettings,
-    cache_config: wfic::cache::CacheConfig,
-) -> f64 {
-    let start = std::time::Instant::now();
-    std::thread::scope(|s| {
-        let twins = [0, 1].map(|_| {
-            s.spawn(|| render_with_scheme(Scheme::Tra, scene, camera, settings, cache_config, 1))
-        });
-        for t in twins {
-            t.join().expect("a TRA twin frame");
-        }
-    });
-    start.elapsed().as_secs_f64()
-}
-
-/// The median of the per-round ratios `a_r / b_r` and a distribution-free confidence interval
-/// for it: the `k`-th smallest and `k`-th largest ratio, with `k` the largest index whose
-/// two-sided coverage `1 - 2 P(Bin(n, 1/2) < k)` is at least 95% (Conover, *Practical
-/// Nonparametric Statistics*, §3.2). Rounds missing from either side are skipped.
-pub fn paired_ratio(a: &[f64], b: &[f64]) -> Option<PairedRatio> {
-    let mut q: Vec<f64> = a.iter().zip(b).map(|(x, y)| x / y).collect();
-    q.retain(|x| x.is_finite());
-    let n = q.len();
-    if n == 0 {
-        return None;
-    }
-    q.sort_by(f64::total_cmp);
-    // P(Bin(n, 1/2) <= j) for every j, in exact binomial coefficients (n is small).
-    let mut cdf = Vec::with_capacity(n + 1);
-    let (mut c, mut acc) = (1.0f64, 0.0f64);
-    for j in 0..=n {
-        if j > 0 {
-            c = c * (n + 1 - j) as f64 / j as f64;
-        }
-        acc += c;
-        cdf.push(acc / 2f64.powi(n as i32));
-    }
-    // Largest k >= 1 with 1 - 2 P(X <= k-1) >= 0.95; none when n is too small (n < 6).
-    let k = (1..=n / 2).rev().find(|&k| 1.0 - 2.0 * cdf[k - 1] >= 0.95);
-    let (lo, hi, coverage) = match k {
-        Some(k) => (q[k - 1], q[n - k], 1.0 - 2.0 * cdf[k - 1]),
-        None => (q[0], q[n - 1], 1.0 - 2.0 * cdf[0]),
-    };
-    Some(PairedRatio {
-        median: median(&q),
-        lo,
-        hi,
-        coverage,
-        n,
-    })
-}
-
-/// The result of [`paired_ratio`].
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct PairedRatio {
-    /// Median of the per-round ratios.
-    pub median: f64,
-    /// Lower end of the interval.
-    pub lo: f64,
-    /// Upper end of the interval.
-    pub hi: f64,
-    /// The interval's exact coverage (at least 0.95 when `n >= 6`).
-    pub coverage: f64,
-    /// Rounds compared.
-    pub n: usize,
-}
-
-/// How a check came out.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Verdict {
-    /// It holds.
-    Yes,
-    /// A timing comparison whose median is on the wrong side of 1 by less than the noise: the
-    /// confidence interval of the paired ratio contains 1, so the runs cannot tell the two apart.
-    Tie,
-    /// It does not hold (for a timing comparison: the whole interval is on the wrong side).
-    No,
-    /// The goal is missed, but by no more than the controls account for: the measured value's
-    /// interval reaches what the machine allows ([`SpeedupAnalysis::ceiling`]).
-    Machine,
-}
-
-impl Verdict {
-    /// `yes`, `tie (within noise)` or `**NO**`.
-    pub fn text(self) -> &'static str {
-        match self {
-            Verdict::Yes => "yes",
-            Verdict::Tie => "tie (within noise)",
-            Verdict::No => "**NO**",
-            Verdict::Machine => "no: the machine's (speed-up table)",
-        }
-    }
-}
 
 /// One configuration's runs.
 #[derive(Clone, Debug, PartialEq)]
@@ -258,6 +152,11 @@ impl Measurement {
         median(&self.runs.iter().map(f).collect::<Vec<_>>())
     }
 
+    /// Every run's seconds, in run order.
+    pub fn times(&self) -> Vec<f64> {
+        self.runs.iter().map(|r| r.seconds).collect()
+    }
+
     /// Median seconds.
     pub fn time(&self) -> f64 {
         self.median(|s| s.seconds)
@@ -270,9 +169,7 @@ impl Measurement {
 
     /// The fastest and slowest run, `min–max` seconds.
     pub fn range(&self) -> String {
-        let t: Vec<f64> = self.runs.iter().map(|r| r.seconds).collect();
-        let min = t.iter().copied().fold(f64::INFINITY, f64::min);
-        let max = t.iter().copied().fold(0.0, f64::max);
+        let (min, max) = stats::range(self.times());
         format!("{min:.4}–{max:.4}")
     }
 
@@ -305,31 +202,14 @@ pub struct Table1 {
     pub machine: Machine,
     /// Every configuration, scene by scene in column order.
     pub measurements: Vec<Measurement>,
-    /// The speed-up's controls, scene by scene (empty without [`Table1Config::controls`]).
+    /// The machine control, scene by scene (empty without [`Table1Config::controls`]).
     pub controls: Vec<Controls>,
     /// Wall-clock seconds of the whole run.
     pub seconds: f64,
 }
 
-/// A statement the reproduction must make hold (WF against TRA, LCK and LW), evaluated on a run.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Check {
-    /// Scene.
-    pub scene: String,
-    /// What is claimed.
-    pub claim: String,
-    /// How it came out.
-    pub verdict: Verdict,
-    /// The figures it was decided on.
-    pub detail: String,
-}
-
-/// Runs the experiment. `progress(label)` is called before every frame (warm-ups included).
-pub fn run(
-    config: &Table1Config,
-    machine: &Machine,
-    progress: &mut dyn FnMut(&str),
-) -> Result<Table1, String> {
+/// Refuses a configuration that cannot run.
+fn validate(config: &Table1Config) -> Result<(), String> {
     if config.runs == 0 {
         return Err("--runs must be at least 1".to_owned());
     }
@@ -342,97 +222,102 @@ pub fn run(
     if config.threads.contains(&0) {
         return Err("thread counts must be at least 1".to_owned());
     }
-    let start = std::time::Instant::now();
+    Ok(())
+}
+
+/// Runs one scene's schedule: a warm-up, then the rounds; its measurements and control.
+fn run_scene(
+    config: &Table1Config,
+    name: &str,
+    progress: &mut dyn FnMut(&str),
+) -> Result<(Vec<Measurement>, Controls), String> {
     let columns = config.columns();
-    let mut measurements = Vec::new();
-    let mut controls = Vec::new();
-    for name in &config.scenes {
-        let scene = scenes::load(name)?;
-        let cache_config = config
-            .settings
-            .cache_config(&scene)
-            .map_err(|e| format!("{name}: {e}"))?;
-        let camera = scene.camera();
-        // Untimed warm-up: pages, caches and the allocator see a frame before any timed one.
-        progress(&format!("{name} warm-up"));
-        let warm = columns.get(1).copied().unwrap_or((Scheme::Tra, 1));
+    let scene = scenes::load(name)?;
+    let cache_config = config
+        .settings
+        .cache_config(&scene)
+        .map_err(|e| format!("{name}: {e}"))?;
+    let camera = scene.camera();
+    let render = |(scheme, threads): (Scheme, usize)| {
         render_with_scheme(
-            warm.0,
+            scheme,
             &scene,
             &camera,
             &config.settings,
             cache_config,
-            warm.1,
-        );
-        let mut runs: Vec<Vec<FrameStats>> = vec![Vec::new(); columns.len()];
-        let mut control = Controls {
-            scene: name.clone(),
-            ..Controls::default()
+            threads,
+        )
+        .0
+        .stats
+    };
+    // Untimed warm-up: pages, caches and the allocator see a frame before any timed one.
+    progress(&format!("{name} warm-up"));
+    render(columns.get(1).copied().unwrap_or((Scheme::Tra, 1)));
+    let mut runs: Vec<Vec<FrameStats>> = vec![Vec::new(); columns.len()];
+    let mut control = Controls {
+        scene: name.to_owned(),
+        ..Controls::default()
+    };
+    let rounds = config.rounds();
+    for round in 0..rounds {
+        // The control comes after the columns in even rounds and before them in odd ones
+        // (whose columns run reversed), so it too has no fixed neighbour.
+        let render_control = |control: &mut Controls, progress: &mut dyn FnMut(&str)| {
+            if config.controls {
+                let settings = &config.settings;
+                control.render_round(
+                    &scene,
+                    &camera,
+                    settings,
+                    cache_config,
+                    (round, rounds),
+                    progress,
+                );
+            }
         };
-        for round in 0..config.rounds() {
-            // The controls come after the columns in even rounds and before them in odd ones
-            // (whose columns run reversed), so they too have no fixed neighbour.
-            let render_controls = |control: &mut Controls, progress: &mut dyn FnMut(&str)| {
-                if !config.controls {
-                    return;
-                }
-                progress(&format!(
-                    "{name} WF 1t (control) round {}/{}",
-                    round + 1,
-                    config.rounds()
-                ));
-                let (frame, _) = render_with_scheme(
-                    Scheme::Wf,
-                    &scene,
-                    &camera,
-                    &config.settings,
-                    cache_config,
-                    1,
-                );
-                control.wf_one.push(frame.stats);
-                progress(&format!(
-                    "{name} 2 x TRA 1t at once (control) round {}/{}",
-                    round + 1,
-                    config.rounds()
-                ));
-                control
-                    .tra_twins
-                    .push(tra_twins(&scene, &camera, &config.settings, cache_config));
-            };
-            if round % 2 == 1 {
-                render_controls(&mut control, progress);
-            }
-            for (i, (scheme, threads)) in config.round_columns(round) {
-                progress(&format!(
-                    "{name} {} {threads}t round {}/{}",
-                    scheme.name(),
-                    round + 1,
-                    config.rounds()
-                ));
-                let (frame, _) = render_with_scheme(
-                    scheme,
-                    &scene,
-                    &camera,
-                    &config.settings,
-                    cache_config,
-                    threads,
-                );
-                runs[i].push(frame.stats);
-            }
-            if round % 2 == 0 {
-                render_controls(&mut control, progress);
-            }
+        if round % 2 == 1 {
+            render_control(&mut control, progress);
         }
+        for (i, (scheme, threads)) in config.round_columns(round) {
+            progress(&format!(
+                "{name} {} {threads}t round {}/{rounds}",
+                scheme.name(),
+                round + 1,
+            ));
+            runs[i].push(render((scheme, threads)));
+        }
+        if round % 2 == 0 {
+            render_control(&mut control, progress);
+        }
+    }
+    let measurements = columns
+        .iter()
+        .zip(runs)
+        .map(|(&(scheme, threads), runs)| Measurement {
+            scene: name.to_owned(),
+            scheme,
+            threads,
+            runs,
+        })
+        .collect();
+    Ok((measurements, control))
+}
+
+/// Runs the experiment. `progress(label)` is called before every frame (warm-ups included).
+pub fn run(
+    config: &Table1Config,
+    machine: &Machine,
+    progress: &mut dyn FnMut(&str),
+) -> Result<Table1, String> {
+    validate(config)?;
+    let start = std::time::Instant::now();
+    let mut measurements = Vec::new();
+    let mut controls = Vec::new();
+    for name in &config.scenes {
+        let (m, control) = run_scene(config, name, progress)?;
+        measurements.extend(m);
         if config.controls {
             controls.push(control);
-        }
-        for (&(scheme, threads), runs) in columns.iter().zip(runs) {
-            measurements.push(Measurement {
-                scene: name.clone(),
-                scheme,
-                threads,
-                runs,
-            });
         }
     }
     Ok(Table1 {
@@ -444,64 +329,20 @@ pub fn run(
     })
 }
 
-/// WF's speed-up over TRA at [`CHECK_THREADS`] threads set against its [`Controls`], one
-/// scene's; every ratio is taken per round (the frames of a round are seconds apart), then the
-/// median and its interval ([`paired_ratio`]).
-#[derive(Clone, Debug, PartialEq)]
-pub struct SpeedupAnalysis {
-    /// Scene.
-    pub scene: String,
-    /// `TRA_r / WF_r`: the speed-up.
-    pub speedup: PairedRatio,
-    /// `2 TRA_r / twins_r`: the speed-up of perfectly divided, unshared work on this machine.
-    pub machine: PairedRatio,
-    /// `WF1_r / TRA_r`: WF's own cost on one thread, nothing shared.
-    pub wf_one: PairedRatio,
-    /// Median [`FrameStats::idle_share`] of the WF frames: worker-time not spent shading.
-    pub idle: f64,
-    /// Median IC samples of WF at 2 threads over TRA's (sharing saves samples: below 1).
-    pub samples: f64,
-}
-
-impl SpeedupAnalysis {
-    /// The speed-up the machine and the frame's idle time leave: `machine × (1 - idle)`. What
-    /// the measured speed-up falls short of it is the cache's (and the noise's).
-    pub fn ceiling(&self) -> f64 {
-        self.machine.median * (1.0 - self.idle)
-    }
-
-    /// [`Verdict::Yes`] at [`SPEEDUP_GOAL`] or above; [`Verdict::Machine`] below it when the
-    /// speed-up's interval reaches the [`Self::ceiling`] (the shortfall is the machine's and the
-    /// frame's, not the cache's); [`Verdict::No`] otherwise.
-    pub fn verdict(&self) -> Verdict {
-        if self.speedup.median >= SPEEDUP_GOAL {
-            Verdict::Yes
-        } else if self.speedup.hi >= self.ceiling() {
-            Verdict::Machine
-        } else {
-            Verdict::No
-        }
-    }
-}
-
 impl Table1 {
-    /// WF's speed-up at [`CHECK_THREADS`] threads against its controls, for `scene` (`None`
-    /// without controls, TRA or WF at 2 threads).
+    /// WF's speed-up at [`CHECK_THREADS`] threads against the machine control, for `scene`
+    /// (`None` without the control, TRA or WF at 2 threads).
     pub fn speedup_analysis(&self, scene: &str) -> Option<SpeedupAnalysis> {
         let tra = self.get(scene, Scheme::Tra, 1)?;
         let wf = self.get(scene, Scheme::Wf, CHECK_THREADS)?;
         let c = self.controls.iter().find(|c| c.scene == scene)?;
-        let times = |runs: &[FrameStats]| runs.iter().map(|r| r.seconds).collect::<Vec<_>>();
-        let (t_tra, t_wf) = (times(&tra.runs), times(&wf.runs));
-        let twice: Vec<f64> = t_tra.iter().map(|t| 2.0 * t).collect();
-        Some(SpeedupAnalysis {
-            scene: scene.to_owned(),
-            speedup: paired_ratio(&t_tra, &t_wf)?,
-            machine: paired_ratio(&twice, &c.tra_twins)?,
-            wf_one: paired_ratio(&times(&c.wf_one), &t_tra)?,
-            idle: wf.median(|s| s.idle_share()),
-            samples: wf.samples() / tra.samples(),
-        })
+        SpeedupAnalysis::new(
+            scene,
+            (&tra.times(), &wf.times()),
+            c,
+            wf.median(|s| s.idle_share()),
+            wf.samples() / tra.samples(),
+        )
     }
 
     /// The measurement of `scene`, `scheme`, `threads`.
@@ -517,19 +358,43 @@ impl Table1 {
             .map_or(f64::NAN, |tra| tra.time() / m.time())
     }
 
-    fn thread_counts(&self) -> Vec<usize> {
-        let mut t = vec![1];
-        t.extend(&self.config.threads);
-        t
+    /// WF against LCK or LW at 2 threads on the per-round ratios: `yes` when their median is
+    /// at most 1, `tie` when it is above 1 but the interval contains 1, `NO` when the whole
+    /// interval is above 1.
+    fn rival_check(&self, scene: &str, wf: &Measurement, rival: Scheme) -> Option<Check> {
+        let r = self.get(scene, rival, CHECK_THREADS)?;
+        let p = paired_ratio(&wf.times(), &r.times())?;
+        let verdict = if p.median <= 1.0 {
+            Verdict::Yes
+        } else if p.lo <= 1.0 {
+            Verdict::Tie
+        } else {
+            Verdict::No
+        };
+        Some(Check::new(
+            scene,
+            format!("WF no slower than {} at 2 threads", rival.heading()),
+            verdict,
+            format!(
+                "WF/{rv} per round: median {:.4} ({:.0}% interval {:.4}–{:.4}, {} rounds); \
+                 medians WF {:.4} s, {rv} {:.4} s",
+                p.median,
+                100.0 * p.coverage,
+                p.lo,
+                p.hi,
+                p.n,
+                wf.time(),
+                r.time(),
+                rv = rival.heading(),
+            ),
+        ))
     }
 
     /// The issue's "what must hold", at 2 threads (real cores on the 2-core machine): WF's
-    /// speed-up over TRA at least 1.8; WF no slower than LCK and LW (judged on the paired
-    /// per-round ratios: `yes` when their median is at most 1, `tie` when it is above 1 but the
-    /// interval contains 1, `NO` when the whole interval is above 1); LW computes more samples
-    /// than WF; WF (`Adopt`) discards nothing.
+    /// speed-up over TRA at least 1.8, and at least [`SPEEDUP_GOAL`] or the shortfall the
+    /// machine's; WF no slower than LCK and LW ([`Self::rival_check`]); LW computes more
+    /// samples than WF; WF (`Adopt`) discards nothing.
     pub fn checks(&self) -> Vec<Check> {
-        let yes_no = |b: bool| if b { Verdict::Yes } else { Verdict::No };
         let mut out = Vec::new();
         for scene in &self.config.scenes {
             let (Some(wf), Some(_tra)) = (
@@ -538,23 +403,17 @@ impl Table1 {
             ) else {
                 continue;
             };
-            let mut push = |claim: &str, verdict: Verdict, detail: String| {
-                out.push(Check {
-                    scene: scene.clone(),
-                    claim: claim.to_owned(),
-                    verdict,
-                    detail,
-                })
-            };
             let s = self.speedup(wf);
-            push(
+            out.push(Check::new(
+                scene,
                 "WF speed-up over TRA at 2 threads >= 1.8",
-                yes_no(s >= 1.8),
+                Verdict::of(s >= 1.8),
                 format!("{s:.3}"),
-            );
+            ));
             if let Some(a) = self.speedup_analysis(scene) {
-                push(
-                    &format!(
+                out.push(Check::new(
+                    scene,
+                    format!(
                         "WF speed-up over TRA at 2 threads >= {SPEEDUP_GOAL}, or the shortfall \
                          the machine's"
                     ),
@@ -569,46 +428,18 @@ impl Table1 {
                         a.machine.median,
                         100.0 * a.idle
                     ),
-                );
+                ));
             }
-            let times = |m: &Measurement| m.runs.iter().map(|r| r.seconds).collect::<Vec<_>>();
             for rival in [Scheme::Lck, Scheme::Lw] {
-                let Some(r) = self.get(scene, rival, CHECK_THREADS) else {
-                    continue;
-                };
-                let Some(p) = paired_ratio(&times(wf), &times(r)) else {
-                    continue;
-                };
-                let verdict = if p.median <= 1.0 {
-                    Verdict::Yes
-                } else if p.lo <= 1.0 {
-                    Verdict::Tie
-                } else {
-                    Verdict::No
-                };
-                push(
-                    &format!("WF no slower than {} at 2 threads", rival.heading()),
-                    verdict,
-                    format!(
-                        "WF/{rv} per round: median {:.4} ({:.0}% interval {:.4}–{:.4}, {} rounds); \
-                         medians WF {:.4} s, {rv} {:.4} s",
-                        p.median,
-                        100.0 * p.coverage,
-                        p.lo,
-                        p.hi,
-                        p.n,
-                        wf.time(),
-                        r.time(),
-                        rv = rival.heading(),
-                    ),
-                );
+                out.extend(self.rival_check(scene, wf, rival));
             }
             if let Some(lw) = self.get(scene, Scheme::Lw, CHECK_THREADS) {
-                push(
+                out.push(Check::new(
+                    scene,
                     "LW computes more samples than WF at 2 threads",
-                    yes_no(lw.samples() > wf.samples()),
+                    Verdict::of(lw.samples() > wf.samples()),
                     format!("LW {}, WF {}", lw.samples(), wf.samples()),
-                );
+                ));
             }
             let discarded: u64 = self
                 .measurements
@@ -616,30 +447,26 @@ impl Table1 {
                 .filter(|m| m.scene == *scene && m.scheme == Scheme::Wf)
                 .flat_map(|m| m.runs.iter().map(|r| r.discarded))
                 .sum();
-            push(
+            out.push(Check::new(
+                scene,
                 "WF (Adopt) discards no sample, any thread count, any run",
-                yes_no(discarded == 0),
+                Verdict::of(discarded == 0),
                 format!("{discarded} discarded"),
-            );
+            ));
         }
         out
     }
 
-    /// `table1.md`: the tables laid out as the paper's Table 1, the paper's figures beside ours,
-    /// and the checks.
-    pub fn markdown(&self, command: &str) -> String {
-        let mut md = String::new();
+    /// The header's list after the provenance: sampling, runs, the oversubscribed columns.
+    fn settings_text(&self) -> String {
         let s = &self.config.settings;
-        let threads = self.thread_counts();
-        let _ = writeln!(md, "# Table 1: still images, empty cache\n");
-        let _ = writeln!(md, "- command: `{command}`");
-        let _ = writeln!(md, "- {}", self.machine.banner(&threads));
-        let _ = writeln!(
-            md,
+        format!(
             "- image {}x{}, {} primary ray(s) per pixel, accuracy {}, {} rays per record, {} light \
              samples per primary hit, {}-pixel tiles; {} timed run(s) per column ({} for TRA, and for \
              LCK, LW and WF at {CHECK_THREADS} threads, which the checks compare{}), medians; one \
-             untimed warm-up frame per scene; whole run {:.0} s",
+             untimed warm-up frame per scene; whole run {:.0} s\n\
+             - columns marked `*` are oversubscribed (more threads than the {} cores): they \
+             measure time-slicing, not scaling\n\n",
             s.width,
             s.height,
             s.pixel_samples,
@@ -651,220 +478,200 @@ impl Table1 {
             self.config.rounds(),
             if self.config.controls {
                 ", each round also renders WF on one thread and two TRA frames at once, the \
-                 speed-up's controls"
+                 machine control"
             } else {
                 ""
             },
-            self.seconds
-        );
-        let _ = writeln!(
-            md,
-            "- columns marked `*` are oversubscribed (more threads than the {} cores): they \
-             measure time-slicing, not scaling\n",
+            self.seconds,
             self.machine.cores
-        );
-        let cols = self.config.columns();
-        for scene in &self.config.scenes {
-            let _ = writeln!(md, "## {scene}\n");
-            let mut head = String::from("| |");
-            let mut rule = String::from("|---|");
-            for &(scheme, t) in &cols {
-                let star = if self.machine.oversubscribed(t) {
-                    "*"
-                } else {
-                    ""
-                };
-                let _ = write!(head, " {} {t}{star} |", scheme.heading());
-                rule.push_str("---:|");
-            }
-            let _ = writeln!(md, "{head}\n{rule}");
-            let ms: Vec<&Measurement> = cols
-                .iter()
-                .filter_map(|&(sc, t)| self.get(scene, sc, t))
-                .collect();
-            let row = |label: &str, f: &dyn Fn(&Measurement) -> String| {
-                let mut r = format!("| {label} |");
-                for m in &ms {
-                    let _ = write!(r, " {} |", f(m));
-                }
-                r
-            };
-            let _ = writeln!(md, "{}", row("Time (s)", &|m| format!("{:.3}", m.time())));
-            let _ = writeln!(md, "{}", row("IC samples", &|m| format!("{}", m.samples())));
-            let _ = writeln!(md, "{}", row("Overheads †", &|m| m.overhead_text()));
-            let _ = writeln!(
-                md,
-                "{}",
-                row("Speed-up", &|m| format!("{:.3}", self.speedup(m)))
-            );
-            let _ = writeln!(
-                md,
-                "{}",
-                row("Sharing", &|m| format!(
-                    "{:.0}%",
-                    100.0 * m.median(|s| s.sharing)
-                ))
-            );
-            let _ = writeln!(md);
-            // Beside the paper.
-            if paper::cell(scene, Scheme::Tra, 1).is_some() {
-                let _ = writeln!(
-                    md,
-                    "Beside the paper (8-core Xeon; its 4 and 8 threads were real cores):\n"
-                );
-                let _ = writeln!(
-                    md,
-                    "| column | paper time (s) | ours | paper IC samples | ours | paper overhead † | ours | paper speed-up | ours |"
-                );
-                let _ = writeln!(md, "|---|---:|---:|---:|---:|---:|---:|---:|---:|");
-                for m in &ms {
-                    if let Some(p) = paper::cell(scene, m.scheme, m.threads) {
-                        let star = if self.machine.oversubscribed(m.threads) {
-                            "*"
-                        } else {
-                            ""
-                        };
-                        let _ = writeln!(
-                            md,
-                            "| {} {}{star} | {:.3} | {:.3} | {} | {} | {} | {} | {:.3} | {:.3} |",
-                            m.scheme.heading(),
-                            m.threads,
-                            p.time,
-                            m.time(),
-                            p.samples,
-                            m.samples(),
-                            p.overhead,
-                            m.overhead_text(),
-                            p.speedup,
-                            self.speedup(m)
-                        );
-                    }
-                }
-                let _ = writeln!(md);
-            }
+        )
+    }
+
+    /// One scene's table laid out as the paper's (a column per configuration), and the
+    /// paper's figures beside ours.
+    fn scene_markdown(&self, scene: &str) -> String {
+        let ms: Vec<&Measurement> = self
+            .config
+            .columns()
+            .iter()
+            .filter_map(|&(sc, t)| self.get(scene, sc, t))
+            .collect();
+        let over = |t: usize| star(self.machine.oversubscribed(t));
+        type Metric<'m> = (&'static str, Box<dyn Fn(&Measurement) -> String + 'm>);
+        let metrics: Vec<Metric> = vec![
+            ("Time (s)", Box::new(|m| format!("{:.3}", m.time()))),
+            ("IC samples", Box::new(|m| format!("{}", m.samples()))),
+            ("Overheads †", Box::new(|m| m.overhead_text())),
+            ("Speed-up", Box::new(|m| format!("{:.3}", self.speedup(m)))),
+            (
+                "Sharing",
+                Box::new(|m| format!("{:.0}%", 100.0 * m.median(|s| s.sharing))),
+            ),
+        ];
+        let mut t = Table::new().md("", |r: &Metric| r.0.to_owned()).left();
+        for &m in &ms {
+            let heading = format!("{} {}{}", m.scheme.heading(), m.threads, over(m.threads));
+            t = t.md(&heading, move |r: &Metric| (r.1)(m));
         }
-        let _ = writeln!(
-            md,
-            "† Overheads: lock-wait seconds summed over threads (LCK, LCK-RW), merge seconds (LW), \
-             samples discarded (WF, WF-D). Sharing: hits served by a record another thread computed.\n"
-        );
+        let mut md = format!("## {scene}\n\n{}\n", t.markdown(&metrics));
+        if paper::cell(scene, Scheme::Tra, 1).is_some() {
+            let beside: Vec<(&Measurement, paper::PaperCell)> = ms
+                .iter()
+                .filter_map(|&m| Some((m, paper::cell(scene, m.scheme, m.threads)?)))
+                .collect();
+            type Pair<'m> = (&'m Measurement, paper::PaperCell);
+            let t = Table::new()
+                .md("column", |(m, _): &Pair| {
+                    format!("{} {}{}", m.scheme.heading(), m.threads, over(m.threads))
+                })
+                .left()
+                .md("paper time (s)", |(_, p)| format!("{:.3}", p.time))
+                .md("ours", |(m, _)| format!("{:.3}", m.time()))
+                .md("paper IC samples", |(_, p)| p.samples.to_string())
+                .md("ours", |(m, _)| m.samples().to_string())
+                .md("paper overhead †", |(_, p)| p.overhead.to_string())
+                .md("ours", |(m, _)| m.overhead_text())
+                .md("paper speed-up", |(_, p)| format!("{:.3}", p.speedup))
+                .md("ours", |(m, _)| format!("{:.3}", self.speedup(m)));
+            let _ = writeln!(
+                md,
+                "Beside the paper (8-core Xeon; its 4 and 8 threads were real cores):\n\n{}",
+                t.markdown(&beside)
+            );
+        }
+        md
+    }
+
+    /// The speed-up set against the machine control, one row a scene.
+    fn speedup_markdown(&self) -> String {
         let analyses: Vec<SpeedupAnalysis> = self
             .config
             .scenes
             .iter()
             .filter_map(|s| self.speedup_analysis(s))
             .collect();
-        if !analyses.is_empty() {
-            let _ = writeln!(
-                md,
-                "## WF's speed-up at 2 threads, set against the machine\n"
-            );
-            let _ = writeln!(
-                md,
-                "Every ratio is taken per round, then its median and interval (order statistics, \
-                 at least 95%). *Machine*: two TRA frames rendered at the same time, each on a \
-                 thread and a cache of its own, against one alone (`2 TRA / twins`): the speed-up \
-                 perfectly divided work with nothing shared reaches on this machine. *Idle*: the \
-                 share of WF's 2 × wall-clock worker-time not spent shading tiles (the last tile's \
-                 tail, starting and joining the workers, assembling the image). *Ceiling* = \
-                 machine × (1 − idle): what is left for WF to reach; the gap below it is the \
-                 cache's (and the noise's). *WF 1 / TRA*: WF's own cost on one thread. \
-                 *Samples*: WF's IC samples at 2 threads over TRA's.\n"
-            );
-            let _ = writeln!(
-                md,
-                "| scene | speed-up TRA/WF 2 | machine 2 TRA/twins | idle WF 2 | ceiling | gap (ceiling − speed-up) | WF 1 / TRA | samples WF 2 / TRA | goal >= {SPEEDUP_GOAL} |\n\
-                 |---|---:|---:|---:|---:|---:|---:|---:|---|"
-            );
-            let ci = |p: &PairedRatio| format!("{:.3} ({:.3}–{:.3})", p.median, p.lo, p.hi);
-            for a in &analyses {
-                let _ = writeln!(
-                    md,
-                    "| {} | {} | {} | {:.2}% | {:.3} | {:+.3} | {} | {:.3} | {} |",
-                    a.scene,
-                    ci(&a.speedup),
-                    ci(&a.machine),
-                    100.0 * a.idle,
-                    a.ceiling(),
-                    a.ceiling() - a.speedup.median,
-                    ci(&a.wf_one),
-                    a.samples,
-                    a.verdict().text()
-                );
-            }
-            let _ = writeln!(md);
+        if analyses.is_empty() {
+            return String::new();
         }
-        let _ = writeln!(md, "## Checks (2 threads, real cores)\n");
-        let _ = writeln!(
+        let goal = format!("goal >= {SPEEDUP_GOAL}");
+        let t = Table::new()
+            .md("scene", |a: &SpeedupAnalysis| a.scene.clone())
+            .left()
+            .md("speed-up TRA/WF 2", |a| a.speedup.text())
+            .md("machine 2 TRA/twins", |a| a.machine.text())
+            .md("idle WF 2", |a| format!("{:.2}%", 100.0 * a.idle))
+            .md("ceiling", |a| format!("{:.3}", a.ceiling()))
+            .md("gap (ceiling − speed-up)", |a| {
+                format!("{:+.3}", a.ceiling() - a.speedup.median)
+            })
+            .md("WF 1 / TRA", |a| a.wf_one.text())
+            .md("samples WF 2 / TRA", |a| format!("{:.3}", a.samples))
+            .md(&goal, |a| a.verdict().text().to_owned())
+            .left();
+        format!(
+            "## WF's speed-up at 2 threads, set against the machine\n\n\
+             Every ratio is taken per round, then its median and interval (order statistics, \
+             at least 95%). *Machine*: two TRA frames rendered at the same time, each on a \
+             thread and a cache of its own, against one alone (`2 TRA / twins`): the speed-up \
+             perfectly divided work with nothing shared reaches on this machine. *Idle*: the \
+             share of WF's 2 × wall-clock worker-time not spent shading tiles (the last tile's \
+             tail, starting and joining the workers, assembling the image). *Ceiling* = \
+             machine × (1 − idle): what is left for WF to reach; the gap below it is the \
+             cache's (and the noise's). *WF 1 / TRA*: WF's own cost on one thread. \
+             *Samples*: WF's IC samples at 2 threads over TRA's.\n\n{}\n",
+            t.markdown(&analyses)
+        )
+    }
+
+    /// `table1.md`'s body: the tables laid out as the paper's Table 1, the paper's figures
+    /// beside ours, the speed-up against the machine, and the checks.
+    pub fn markdown(&self) -> String {
+        let mut md = self.settings_text();
+        for scene in &self.config.scenes {
+            md.push_str(&self.scene_markdown(scene));
+        }
+        md.push_str(
+            "† Overheads: lock-wait seconds summed over threads (LCK, LCK-RW), merge seconds (LW), \
+             samples discarded (WF, WF-D). Sharing: hits served by a record another thread computed.\n\n",
+        );
+        md.push_str(&self.speedup_markdown());
+        let _ = write!(
             md,
-            "Timing comparisons are judged on the per-round ratios WF/rival (both frames of a round \
+            "## Checks (2 threads, real cores)\n\n\
+             Timing comparisons are judged on the per-round ratios WF/rival (both frames of a round \
              rendered seconds apart): `yes` when their median is at most 1, `tie (within noise)` \
              when the median is above 1 but the interval (order statistics, at least 95%) contains \
-             1, `NO` when the whole interval is above 1.\n"
+             1, `NO` when the whole interval is above 1.\n\n{}",
+            Check::markdown(&self.checks(), true)
         );
-        let _ = writeln!(md, "| scene | claim | holds | figures |\n|---|---|---|---|");
-        for c in self.checks() {
-            let _ = writeln!(
-                md,
-                "| {} | {} | {} | {} |",
-                c.scene,
-                c.claim,
-                c.verdict.text(),
-                c.detail
-            );
-        }
         md
     }
 
     /// `table1.csv`: one row per configuration, medians and every run's time.
     pub fn csv(&self) -> String {
-        let mut out = String::from(
-            "scene,scheme,threads,cores,oversubscribed,width,height,runs,time_median_s,time_min_s,\
-             time_max_s,times_s,ic_samples_median,lookups_median,hits_median,sharing_median,\
-             lock_wait_s_median,merge_s_median,discarded_median,discarded_total,cache_records_median,\
-             speedup_vs_tra\n",
-        );
-        for m in &self.measurements {
-            let times: Vec<f64> = m.runs.iter().map(|r| r.seconds).collect();
-            let min = times.iter().copied().fold(f64::INFINITY, f64::min);
-            let max = times.iter().copied().fold(0.0, f64::max);
-            let list: Vec<String> = times.iter().map(|t| format!("{t:.4}")).collect();
-            let _ = writeln!(
-                out,
-                "{},{},{},{},{},{},{},{},{:.4},{:.4},{:.4},{},{},{},{},{:.4},{:.5},{:.5},{},{},{},{:.4}",
-                m.scene,
-                m.scheme.name(),
-                m.threads,
-                self.machine.cores,
-                self.machine.oversubscribed(m.threads),
-                self.config.settings.width,
-                self.config.settings.height,
-                m.runs.len(),
-                m.time(),
-                min,
-                max,
-                list.join(";"),
-                m.samples(),
-                m.median(|s| s.lookups as f64),
-                m.median(|s| s.hits as f64),
-                m.median(|s| s.sharing),
-                m.median(|s| s.lock_wait_seconds),
-                m.median(|s| s.merge_seconds),
-                m.median(|s| s.discarded as f64),
-                m.runs.iter().map(|r| r.discarded).sum::<u64>(),
-                m.median(|s| s.cache_records as f64),
-                self.speedup(m),
-            );
-        }
-        out
+        let (cores, s) = (self.machine.cores, &self.config.settings);
+        let mut t = Table::new()
+            .csv("scene", |m: &Measurement| m.scene.clone())
+            .csv("scheme", |m| m.scheme.name().to_owned())
+            .csv("threads", |m| m.threads.to_string())
+            .csv("cores", move |_| cores.to_string())
+            .csv("oversubscribed", |m| {
+                self.machine.oversubscribed(m.threads).to_string()
+            })
+            .csv("width", move |_| s.width.to_string())
+            .csv("height", move |_| s.height.to_string())
+            .csv("runs", |m| m.runs.len().to_string())
+            .csv("time_median_s", |m| format!("{:.4}", m.time()))
+            .csv("time_min_s", |m| {
+                format!("{:.4}", stats::range(m.times()).0)
+            })
+            .csv("time_max_s", |m| {
+                format!("{:.4}", stats::range(m.times()).1)
+            })
+            .csv("times_s", |m| {
+                let list: Vec<String> = m.times().iter().map(|t| format!("{t:.4}")).collect();
+                list.join(";")
+            })
+            .csv("ic_samples_median", |m| m.samples().to_string())
+            .csv("lookups_median", |m| {
+                m.median(|s| s.lookups as f64).to_string()
+            })
+            .csv("hits_median", |m| m.median(|s| s.hits as f64).to_string());
+        t = t
+            .csv("sharing_median", |m| {
+                format!("{:.4}", m.median(|s| s.sharing))
+            })
+            .csv("lock_wait_s_median", |m| {
+                format!("{:.5}", m.median(|s| s.lock_wait_seconds))
+            })
+            .csv("merge_s_median", |m| {
+                format!("{:.5}", m.median(|s| s.merge_seconds))
+            });
+        t.csv("discarded_median", |m| {
+            m.median(|s| s.discarded as f64).to_string()
+        })
+        .csv("discarded_total", |m| {
+            m.runs.iter().map(|r| r.discarded).sum::<u64>().to_string()
+        })
+        .csv("cache_records_median", |m| {
+            m.median(|s| s.cache_records as f64).to_string()
+        })
+        .csv("speedup_vs_tra", |m| format!("{:.4}", self.speedup(m)))
+        .csv_text(&self.measurements)
     }
 
     /// `speedup.csv`: per scene and round, the times WF's speed-up at [`CHECK_THREADS`] is
     /// judged on (TRA, WF at 2 threads and its idle share, WF on one thread, the TRA twins).
     pub fn speedup_csv(&self) -> String {
-        let mut out = String::from(
-            "scene,round,tra_s,wf2_s,wf2_idle_share,wf1_s,tra_twins_s,speedup,machine\n",
+        type Round<'a> = (
+            &'a str,
+            usize,
+            &'a FrameStats,
+            &'a FrameStats,
+            &'a FrameStats,
+            f64,
         );
+        let mut rows: Vec<Round> = Vec::new();
         for c in &self.controls {
             let (Some(tra), Some(wf)) = (
                 self.get(&c.scene, Scheme::Tra, 1),
@@ -872,36 +679,33 @@ impl Table1 {
             ) else {
                 continue;
             };
-            for (r, (((t, w), one), twins)) in tra
+            let rounds = tra
                 .runs
                 .iter()
                 .zip(&wf.runs)
                 .zip(&c.wf_one)
-                .zip(&c.tra_twins)
-                .enumerate()
-            {
-                let _ = writeln!(
-                    out,
-                    "{},{},{:.5},{:.5},{:.5},{:.5},{:.5},{:.4},{:.4}",
-                    c.scene,
-                    r,
-                    t.seconds,
-                    w.seconds,
-                    w.idle_share(),
-                    one.seconds,
-                    twins,
-                    t.seconds / w.seconds,
-                    2.0 * t.seconds / twins
-                );
+                .zip(&c.tra_twins);
+            for (r, (((t, w), one), &twins)) in rounds.enumerate() {
+                rows.push((&c.scene, r, t, w, one, twins));
             }
         }
-        out
+        Table::new()
+            .csv("scene", |r: &Round| r.0.to_owned())
+            .csv("round", |r| r.1.to_string())
+            .csv("tra_s", |r| format!("{:.5}", r.2.seconds))
+            .csv("wf2_s", |r| format!("{:.5}", r.3.seconds))
+            .csv("wf2_idle_share", |r| format!("{:.5}", r.3.idle_share()))
+            .csv("wf1_s", |r| format!("{:.5}", r.4.seconds))
+            .csv("tra_twins_s", |r| format!("{:.5}", r.5))
+            .csv("speedup", |r| format!("{:.4}", r.2.seconds / r.3.seconds))
+            .csv("machine", |r| format!("{:.4}", 2.0 * r.2.seconds / r.5))
+            .csv_text(&rows)
     }
 
     /// Figure 1: one panel per scene, time per scheme as lines (left axis), speed-up over TRA as
     /// bars (right axis), x = threads; oversubscribed thread counts shaded.
     pub fn figure(&self) -> Figure {
-        let threads = self.thread_counts();
+        let threads = self.config.thread_counts();
         let xs: Vec<f64> = (0..threads.len()).map(|i| i as f64).collect();
         let schemes: Vec<Scheme> = self
             .config
@@ -1016,17 +820,21 @@ impl Table1 {
         }
     }
 
-    /// Writes `table1.md`, `table1.csv`, `figure1.png` and `figure1.svg` into `dir`.
+    /// Writes `table1.md`, `table1.csv`, `speedup.csv` (with the machine control),
+    /// `figure1.png` and `figure1.svg` into `dir`, each with the provenance of `command`.
     pub fn write(&self, dir: &Path, command: &str) -> Result<(), String> {
-        std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
-        write_file(&dir.join("table1.md"), &self.markdown(command))?;
-        write_file(&dir.join("table1.csv"), &self.csv())?;
+        let threads = self.config.thread_counts();
+        let provenance = Provenance::new(command, &self.machine, &threads, &[]);
+        let out = Output::new(dir, &provenance)?;
+        let title = "Table 1: still images, empty cache";
+        out.markdown("table1.md", title, &self.markdown())?;
+        out.csv("table1.csv", &self.csv())?;
         if !self.controls.is_empty() {
-            write_file(&dir.join("speedup.csv"), &self.speedup_csv())?;
+            out.csv("speedup.csv", &self.speedup_csv())?;
         }
         let figure = self.figure();
-        figure.write_png(&dir.join("figure1.png"))?;
-        figure.write_svg(&dir.join("figure1.svg"))
+        figure.write_png(&out.path("figure1.png"))?;
+        figure.write_svg(&out.path("figure1.svg"))
     }
 }
 
@@ -1087,43 +895,6 @@ mod tests {
         bad.paired_runs = 1;
         let e = run(&bad, &machine, &mut |_| {}).unwrap_err();
         assert!(e.contains("--paired-runs 1 is fewer than --runs 2"), "{e}");
-    }
-
-    #[test]
-    fn paired_ratios_give_the_median_and_an_order_statistic_interval() {
-        // Ratios 0.90, 0.95, ..., 1.40 (11 rounds): median 1.15; the 95% interval drops the two
-        // most extreme on each side (k = 2: coverage 1 - 2 * 12/2048 = 0.98828).
-        let b = vec![2.0; 11];
-        let a: Vec<f64> = (0..11)
-            .rev()
-            .map(|i| 2.0 * (0.90 + 0.05 * i as f64))
-            .collect();
-        let p = paired_ratio(&a, &b).unwrap();
-        assert_eq!(p.n, 11);
-        assert!((p.median - 1.15).abs() < 1e-12, "{p:?}");
-        assert!(
-            (p.lo - 0.95).abs() < 1e-12 && (p.hi - 1.35).abs() < 1e-12,
-            "{p:?}"
-        );
-        assert!((p.coverage - (1.0 - 24.0 / 2048.0)).abs() < 1e-12, "{p:?}");
-        // Pairs are kept together: sorting one side alone would change the ratios.
-        let p2 = paired_ratio(&[1.0, 3.0], &[3.0, 1.0]).unwrap();
-        assert!((p2.median - (1.0 / 3.0 + 3.0) / 2.0).abs() < 1e-12);
-        // Too few rounds for 95%: the interval is the whole range, and says its coverage.
-        let p3 = paired_ratio(&[1.0, 2.0, 3.0], &[1.0; 3]).unwrap();
-        assert_eq!((p3.lo, p3.hi), (1.0, 3.0));
-        assert!(p3.coverage < 0.95);
-        assert!(paired_ratio(&[], &[]).is_none());
-        // Verdicts from a table whose WF is 1% slower in every round but one: a tie at most.
-        let n = 15;
-        let k = (1..=n / 2).rev().find(|&k| {
-            let tail: f64 = (0..k).map(|j| binom(n, j)).sum::<f64>() / 2f64.powi(n as i32);
-            1.0 - 2.0 * tail >= 0.95
-        });
-        assert_eq!(k, Some(4), "n = 15 drops three ratios on each side");
-        let wf: Vec<f64> = (0..n).map(|i| if i == 0 { 0.9 } else { 1.01 }).collect();
-        let p4 = paired_ratio(&wf, &vec![1.0; n]).unwrap();
-        assert!(p4.lo > 1.0, "consistently slower is not a tie: {p4:?}");
     }
 
     /// A table of one scene whose TRA, WF and controls take the given times, round by round.
@@ -1201,7 +972,7 @@ mod tests {
         let t = timed(&same(1.0), &wf, &same(1.0), &same(1.0), 0.01);
         assert_eq!(t.speedup_analysis("s").unwrap().verdict(), Verdict::No);
         // ...and the table says what it found.
-        let md = t.markdown("test");
+        let md = t.markdown();
         assert!(md.contains("set against the machine"), "{md}");
         assert!(
             md.contains(
@@ -1220,10 +991,6 @@ mod tests {
         let mut t = t;
         t.controls.clear();
         assert!(t.speedup_analysis("s").is_none());
-    }
-
-    fn binom(n: usize, k: usize) -> f64 {
-        (0..k).fold(1.0, |c, j| c * (n - j) as f64 / (j + 1) as f64)
     }
 
     #[test]

@@ -6,7 +6,7 @@
 #![cfg(not(checker))]
 
 use std::process::Command;
-use wfic_experiments::radiance::{compare_scene, RadianceBin, RadianceConfig};
+use wfic_experiments::radiance::{compare_scene, RadianceBin, RadianceConfig, Role};
 use wfic_render::scenes;
 
 fn radiance() -> Option<RadianceBin> {
@@ -46,7 +46,7 @@ fn radiance_and_wfic_render_the_same_cornell_box() {
     assert!(r.cross_check.rel_rmse < 0.25, "{:?}", r.cross_check);
     for renderer in ["radiance", "wfic"] {
         for workers in [1, 2] {
-            let run = r.find(renderer, "matched", workers).unwrap();
+            let run = r.find(renderer, Role::Matched, workers).unwrap();
             assert!(
                 run.records > 50,
                 "{renderer} x{workers}: {} records",
@@ -82,7 +82,7 @@ fn radiance_and_wfic_render_the_same_cornell_box() {
     let swept: Vec<f32> = r
         .runs
         .iter()
-        .filter(|run| run.role == "sweep")
+        .filter(|run| run.role == Role::Sweep)
         .map(|run| run.accuracy)
         .collect();
     assert!(
@@ -91,7 +91,7 @@ fn radiance_and_wfic_render_the_same_cornell_box() {
     );
     // Each brute-force reference traces 4N rays per pixel (the wfic row reads its settings).
     for renderer in ["radiance", "wfic"] {
-        let reference = r.find(renderer, "reference", 2).unwrap();
+        let reference = r.find(renderer, Role::Reference, 2).unwrap();
         assert_eq!(reference.rays, 4 * config.rays, "{renderer} reference");
     }
     assert!(dir.join("cornell-side-by-side.png").is_file());

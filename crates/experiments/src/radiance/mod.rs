@@ -1,0 +1,1024 @@
+//! `wfic compare radiance`: the same scene rendered by Radiance (Ward's own irradiance cache,
+//! `rtrace -ab 1`) and by wfic (`wf`), side by side, at matched settings, each against its own
+//! brute-force image; then the wfic setting whose error is at or below Radiance's, and the time
+//! ratio there.
+//!
+//! What is matched. The geometry, materials and lights are exported from the wfic scene
+//! ([`rtrace::write_rad`]: diffuse materials as `plastic` with no specular component, emitters
+//! as one-sided `light`). The camera is matched ray for ray: wfic's own primary rays (one
+//! through each pixel's centre) are fed to `rtrace -if`, so both renderers shade exactly the
+//! same points. The cache: one bounce of indirect light (`-ab 1`, `-av 0 0 0`), the same rays
+//! per record (`-ad N -as 0`: no supersampling, which wfic does not do), the same accuracy `a`
+//! (`-aa`), Radiance's ambient resolution `-ar`. Direct light: Radiance's is deterministic
+//! (`-dj 0`); wfic samples area lights stochastically, with the same per-pixel random stream in
+//! a cached image and in its reference, so the direct term cancels in the cache error.
+//!
+//! Two errors ([`crate::harness::metrics`]). The *cache error* compares each cached image with
+//! that renderer's own brute-force image (`4N` rays, no cache): what the cache interpolates,
+//! nothing else. The *image error* compares each cached image with one converged reference
+//! (wfic `none`, `4N` rays, many light samples, another seed): what a user sees.
+//!
+//! Schedule ([`compare_scene`]): the references; the matched settings at 1 and 2 workers; a
+//! sweep of wfic's accuracy, rays per record, lower radius clamp and smoothing at 2 threads;
+//! each worker count's pick, the cheapest swept setting at or below Radiance's cache error at
+//! that count, rendered again at 1 and 2 workers ([`Role::Pick`]); the light-sample study at the
+//! pick. Every measured setting is rendered [`RadianceConfig::repeats`] times (wfic with as
+//! many seeds, each against its own seed's brute-force image; Radiance with a fresh ambient
+//! file each time), a row being their median time and record count and their mean errors
+//! ([`Run::combine`]). Report: [`report`].
+
+pub mod report;
+pub mod rtrace;
+
+pub use rtrace::{shared_ambient, write_rad, RadianceBin, Rtrace, SharedAmbientRun};
+
+use crate::harness::measure::repeat;
+use crate::harness::metrics::{image_error, masked_mean, surface_mask, ImageError};
+use crate::harness::stats::{self, median};
+use crate::harness::{Machine, Output, Provenance};
+use std::path::Path;
+use wfic::cache::Scheme;
+use wfic_render::film::Image;
+use wfic_render::{render_reference_grid, render_with_scheme, scenes, RenderSettings, Scene};
+
+/// What one comparison runs.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RadianceConfig {
+    /// Built-in scenes to compare, in order.
+    pub scenes: Vec<String>,
+    /// Image width and height.
+    pub size: (u32, u32),
+    /// Hemisphere rays per record (`-ad`; wfic `rays_per_record`).
+    pub rays: u32,
+    /// Ward's accuracy (`-aa`; wfic `accuracy`).
+    pub accuracy: f32,
+    /// Radiance's ambient resolution (`-ar`).
+    pub resolution: u32,
+    /// wfic's light samples per primary hit in the matched runs.
+    pub light_samples: u32,
+    /// The accuracies of the sweep as multiples of `accuracy` (each with every multiple of
+    /// [`RadianceConfig::sweep_rays_scales`]). Above 1 as well as below: wfic's cache error is
+    /// mostly its records' own hemisphere noise, so fewer records of more rays can be both
+    /// cheaper and more accurate.
+    pub sweep_accuracy_scales: Vec<f32>,
+    /// The rays per record of the sweep as multiples of `rays`: steps of an eighth around the
+    /// matched count, a sixteenth at the low end, so the cheapest setting at Radiance's error
+    /// is not missed by a coarse step.
+    pub sweep_rays_scales: Vec<f32>,
+    /// The light-sample counts of the image-noise study: from 1, so the smallest count whose
+    /// image noise is at or below Radiance's is found, not only bounded.
+    pub light_sweep: Vec<u32>,
+    /// Light samples of the converged reference.
+    pub converged_light_samples: u32,
+    /// The lower radius clamps of the sweep, in pixel footprints (wfic's `min_radius_pixels`;
+    /// Radiance clamps by `-ar` instead).
+    pub sweep_min_radius: Vec<f32>,
+    /// The smoothings of the sweep (wfic's [`RenderSettings::smoothing`]: pixels interpolate
+    /// the records valid at `k a`, records are placed at `a` as without it). The matched runs
+    /// keep 1, Ward's cache as Radiance has it.
+    pub sweep_smoothing: Vec<f32>,
+    /// The brute-force references are traced at one pixel of each `stride` x `stride` block
+    /// (every error is measured on those pixels), so they cost `1 / stride^2` of a full image.
+    pub reference_stride: u32,
+    /// Keep the exported scene, rays and ambient files (`DIR/work-NAME/`).
+    pub keep_work: bool,
+    /// Renders of every measured setting: one frame's cache error moves between seeds and its
+    /// time between runs by as much as the margins the goal is decided by.
+    pub repeats: u32,
+}
+
+impl RadianceConfig {
+    /// The full comparison: 256 x 256, `rtrace -ab 1 -ad 512 -aa 0.15 -ar 128`, references at
+    /// one pixel in 16.
+    pub fn full(scenes: Vec<String>) -> Self {
+        Self {
+            scenes,
+            size: (256, 256),
+            rays: 512,
+            accuracy: 0.15,
+            resolution: 128,
+            light_samples: 8,
+            sweep_accuracy_scales: vec![2.0, 4.0 / 3.0, 1.0, 2.0 / 3.0],
+            sweep_rays_scales: vec![0.5, 0.5625, 0.625, 0.75, 0.875, 1.0, 1.25, 1.5, 2.0],
+            sweep_min_radius: vec![6.0, 12.0],
+            sweep_smoothing: vec![1.0, 1.5],
+            light_sweep: vec![1, 2, 4, 8, 16, 32, 64, 128],
+            converged_light_samples: 256,
+            reference_stride: 4,
+            keep_work: false,
+            repeats: 3,
+        }
+    }
+
+    /// A smoke run (CI): 96 x 96, 128 rays per record, a short sweep, references at one
+    /// pixel in 4.
+    pub fn quick(scenes: Vec<String>) -> Self {
+        Self {
+            size: (96, 96),
+            rays: 128,
+            sweep_accuracy_scales: vec![4.0 / 3.0, 1.0],
+            sweep_rays_scales: vec![0.5, 0.75, 1.0, 1.5, 2.0],
+            sweep_min_radius: vec![6.0, 12.0],
+            light_sweep: vec![8, 32],
+            converged_light_samples: 128,
+            reference_stride: 2,
+            repeats: 1,
+            ..Self::full(scenes)
+        }
+    }
+
+    /// wfic's settings at this size.
+    fn settings(&self, accuracy: f32, rays: u32, light: u32, seed: u64) -> RenderSettings {
+        RenderSettings::new(self.size.0, self.size.1)
+            .accuracy(accuracy)
+            .rays_per_record(rays)
+            .light_samples(light)
+            .seed(seed)
+            .quiet(true)
+    }
+}
+
+/// What a row of the comparison is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Role {
+    /// A brute-force reference (no cache, `4N` rays).
+    Reference,
+    /// The matched settings.
+    Matched,
+    /// A setting of the sweep (wfic, 2 threads).
+    Sweep,
+    /// A swept setting rendered again at a worker count whose frame erred above Radiance's.
+    PickTried,
+    /// A worker count's pick, rendered at 1 and 2 workers: `reached` when it errs at or below
+    /// Radiance's (`equal-error`), else the most accurate swept one (`most-accurate`);
+    /// `workers` names the count it is the pick of when the two counts' picks differ.
+    Pick {
+        /// Whether it reached Radiance's cache error.
+        reached: bool,
+        /// The worker count it is the pick of (`None`: both).
+        workers: Option<usize>,
+    },
+    /// The light-sample study at the pick.
+    LightSamples,
+}
+
+impl Role {
+    /// The name tables and the CSV use.
+    pub fn name(self) -> &'static str {
+        match self {
+            Role::Reference => "reference",
+            Role::Matched => "matched",
+            Role::Sweep => "sweep",
+            Role::PickTried => "pick-tried",
+            Role::LightSamples => "light-samples",
+            Role::Pick { reached, workers } => match (reached, workers) {
+                (true, None) => "equal-error",
+                (true, Some(1)) => "equal-error-1",
+                (true, Some(_)) => "equal-error-2",
+                (false, None) => "most-accurate",
+                (false, Some(1)) => "most-accurate-1",
+                (false, Some(_)) => "most-accurate-2",
+            },
+        }
+    }
+}
+
+impl std::fmt::Display for Role {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// One measured render.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Run {
+    /// `radiance` or `wfic`.
+    pub renderer: &'static str,
+    /// What the row is.
+    pub role: Role,
+    /// Workers (`rtrace -n`, wfic threads).
+    pub workers: usize,
+    /// Accuracy.
+    pub accuracy: f32,
+    /// Rays per record.
+    pub rays: u32,
+    /// wfic light samples (0 for Radiance: deterministic).
+    pub light_samples: u32,
+    /// wfic's lower radius clamp in pixel footprints (0 for Radiance, which uses `-ar`).
+    pub min_radius_pixels: f32,
+    /// wfic's smoothing ([`RenderSettings::smoothing`]; 1 for Radiance).
+    pub smoothing: f32,
+    /// Wall time of the frame (Radiance: the `rtrace` process, loading the octree included).
+    pub seconds: f64,
+    /// Cache records after the frame.
+    pub records: usize,
+    /// Against the renderer's own brute-force image.
+    pub cache_error: ImageError,
+    /// Against the converged reference.
+    pub image_error: ImageError,
+    /// Renders behind the row ([`RadianceConfig::repeats`]): `seconds` is their median,
+    /// `records` their median, the errors their mean.
+    pub repeats: u32,
+    /// The smallest and largest cache error (relative RMSE) among them.
+    pub cache_error_range: (f64, f64),
+}
+
+impl Run {
+    /// A row of one render of `renderer` in `role` at `workers`, with wfic's settings `s`
+    /// (`None`: Radiance) and the `(accuracy, rays)` it ran at; errors not yet measured.
+    fn new(
+        renderer: &'static str,
+        role: Role,
+        workers: usize,
+        s: Option<&RenderSettings>,
+        (accuracy, rays): (f32, u32),
+        (seconds, records): (f64, usize),
+    ) -> Self {
+        Run {
+            renderer,
+            role,
+            workers,
+            accuracy,
+            rays,
+            light_samples: s.map_or(0, |s| s.light_samples),
+            min_radius_pixels: s.map_or(0.0, |s| s.min_radius_pixels),
+            smoothing: s.map_or(1.0, |s| s.smoothing),
+            seconds,
+            records,
+            cache_error: ImageError::default(),
+            image_error: ImageError::default(),
+            repeats: 1,
+            cache_error_range: (0.0, 0.0),
+        }
+    }
+
+    /// One row from the renders of one setting: the median time and record count, the mean
+    /// errors, the range of the cache error.
+    pub fn combine(runs: Vec<Run>) -> Run {
+        assert!(!runs.is_empty(), "a row needs a render");
+        let mean = |f: &dyn Fn(&Run) -> f64| stats::mean(runs.iter().map(f));
+        let mut row = runs[0].clone();
+        row.seconds = median(&runs.iter().map(|r| r.seconds).collect::<Vec<_>>());
+        let records: Vec<f64> = runs.iter().map(|r| r.records as f64).collect();
+        row.records = median(&records).round() as usize;
+        row.cache_error = ImageError {
+            rel_rmse: mean(&|r| r.cache_error.rel_rmse),
+            mean_rel: mean(&|r| r.cache_error.mean_rel),
+        };
+        row.image_error = ImageError {
+            rel_rmse: mean(&|r| r.image_error.rel_rmse),
+            mean_rel: mean(&|r| r.image_error.mean_rel),
+        };
+        row.cache_error_range = stats::range(runs.iter().map(|r| r.cache_error.rel_rmse));
+        row.repeats = runs.iter().map(|r| r.repeats).sum();
+        row
+    }
+}
+
+/// One scene's comparison.
+#[derive(Clone, Debug)]
+pub struct SceneComparison {
+    /// The scene.
+    pub scene: String,
+    /// Triangles, and whether the scene is a real model or a stand-in.
+    pub triangles: usize,
+    /// `real` or `stand-in`.
+    pub source: &'static str,
+    /// Seconds `rtrace` takes to load the octree and trace one ray (included in its times).
+    pub radiance_load_seconds: f64,
+    /// Seconds of `oconv` (not included anywhere, like wfic's BVH build).
+    pub oconv_seconds: f64,
+    /// Every measured render.
+    pub runs: Vec<Run>,
+    /// wfic's brute-force image, Radiance's brute-force image against it (the cross-check that
+    /// both render the same scene).
+    pub cross_check: ImageError,
+    /// Mean luminance of Radiance's brute-force image over wfic's converged one (the masked
+    /// pixels): 1 when both render the same light, whatever the noise.
+    pub mean_ratio: f64,
+}
+
+impl SceneComparison {
+    /// The run of `renderer` in `role` at `workers`, if measured.
+    pub fn find(&self, renderer: &str, role: Role, workers: usize) -> Option<&Run> {
+        self.runs
+            .iter()
+            .find(|r| r.renderer == renderer && r.role == role && r.workers == workers)
+    }
+}
+
+/// Progress lines go to standard error.
+fn say(scene: &str, what: &str) {
+    eprintln!("[{scene}] {what}");
+}
+
+/// Runs the comparison and writes `radiance.md`, `radiance.csv` and one side-by-side PNG per
+/// scene into `out_dir`, the files headed by the provenance of `command`.
+pub fn run(config: &RadianceConfig, out_dir: &Path, command: &str) -> Result<(), String> {
+    let bin = RadianceBin::find()?;
+    let machine = Machine::detect();
+    // Radiance's processes and wfic's threads: 1 and 2 workers.
+    let provenance = Provenance::new(command, &machine, &[1, 2], &[]);
+    let out = Output::new(out_dir, &provenance)?;
+    let version = bin.version();
+    let mut results = Vec::new();
+    for name in &config.scenes {
+        let scene = scenes::load(name)?;
+        results.push(compare_scene(&bin, config, &scene, out_dir)?);
+    }
+    let title = "wfic against Radiance, side by side";
+    out.markdown(
+        "radiance.md",
+        title,
+        &report::markdown(config, &results, &version),
+    )?;
+    out.csv("radiance.csv", &report::csv(&results))?;
+    eprintln!(
+        "wrote {}/radiance.md, radiance.csv and the side-by-side images",
+        out_dir.display()
+    );
+    Ok(())
+}
+
+/// The seed of wfic's repeat `i`: the matched seed first.
+fn seed_of(i: u32) -> u64 {
+    0x5eed + 0x1_0000 * u64::from(i)
+}
+
+/// The images a comparison measures against: the renderer's own brute-force images (wfic: one
+/// per seed, repeat `i` against `own[i]`; Radiance: one, every repeat against `own[0]`), the
+/// converged one, the pixels measured.
+struct References<'a> {
+    own: &'a [Image],
+    converged: &'a Image,
+    mask: &'a [bool],
+}
+
+impl References<'_> {
+    /// `run` with its errors: `img` against the own reference of `repeat` and the converged one.
+    fn measured(&self, mut run: Run, img: &Image, repeat: usize) -> Run {
+        run.cache_error = image_error(img, &self.own[repeat], self.mask);
+        run.image_error = image_error(img, self.converged, self.mask);
+        run.cache_error_range = (run.cache_error.rel_rmse, run.cache_error.rel_rmse);
+        run
+    }
+
+    /// wfic frames (`wf`, a fresh cache) of `scene` at settings `s` on `workers` threads, one
+    /// per own reference (each with that reference's seed), measured as one row
+    /// ([`Run::combine`]); and the first frame's image.
+    fn wfic_frames(
+        &self,
+        scene: &Scene,
+        role: Role,
+        s: &RenderSettings,
+        workers: usize,
+    ) -> Result<(Run, Image), String> {
+        let mut first = None;
+        let runs = repeat(self.own.len(), |i| {
+            let mut s = s.clone();
+            s.seed = seed_of(i as u32);
+            let config = s.cache_config(scene).map_err(|e| e.to_string())?;
+            let camera = scene.camera();
+            let f = render_with_scheme(Scheme::Wf, scene, &camera, &s, config, workers).0;
+            let setting = (s.accuracy, s.rays_per_record);
+            let stats = (f.stats.seconds, f.stats.cache_records);
+            let run = Run::new("wfic", role, workers, Some(&s), setting, stats);
+            let run = self.measured(run, &f.image, i);
+            first.get_or_insert(f.image);
+            Ok::<_, String>(run)
+        })?;
+        Ok((Run::combine(runs), first.expect("at least one repeat")))
+    }
+
+    /// [`Self::wfic_frames`] without the image.
+    fn wfic(
+        &self,
+        scene: &Scene,
+        role: Role,
+        s: &RenderSettings,
+        workers: usize,
+    ) -> Result<Run, String> {
+        Ok(self.wfic_frames(scene, role, s, workers)?.0)
+    }
+}
+
+/// Both renderers' references of one scene, and what they are measured on.
+struct SceneReferences {
+    mask: Vec<bool>,
+    radiance: Image,
+    radiance_seconds: f64,
+    wfic_own: Vec<Image>,
+    wfic_seconds: f64,
+    wfic_settings: RenderSettings,
+    converged: Image,
+}
+
+impl SceneReferences {
+    /// Radiance's brute-force image, wfic's one per seed and the converged one.
+    fn render(config: &RadianceConfig, scene: &Scene, rtrace: &Rtrace) -> Result<Self, String> {
+        let (name, n, a, k) = (
+            scene.name(),
+            config.rays,
+            config.accuracy,
+            config.reference_stride,
+        );
+        say(
+            name,
+            &format!(
+                "radiance reference: -aa 0 -ad {}, 2 processes, 1 pixel in {}",
+                4 * n,
+                k * k
+            ),
+        );
+        let (radiance, radiance_seconds) = rtrace.reference(4 * n)?;
+        // wfic's references on the same grid: brute force with the matched light samples (cache
+        // error), and the converged one (image error) with more light samples and another seed.
+        let repeats = config.repeats.max(1);
+        say(
+            name,
+            &format!(
+                "wfic reference: none, {} rays, 2 threads, {repeats} seed(s)",
+                4 * n
+            ),
+        );
+        let wfic_settings = config.settings(a, 4 * n, config.light_samples, seed_of(0));
+        let rc = wfic_settings
+            .cache_config(scene)
+            .map_err(|e| e.to_string())?;
+        let camera = scene.camera();
+        let mut own = Vec::new();
+        for i in 0..repeats {
+            let mut rs = wfic_settings.clone();
+            rs.seed = seed_of(i);
+            own.push(render_reference_grid(scene, &camera, &rs, rc, 2, k));
+        }
+        let light = config.converged_light_samples;
+        say(
+            name,
+            &format!(
+                "converged reference: none, {} rays, {light} light samples",
+                4 * n
+            ),
+        );
+        let conv_settings = config.settings(a, 4 * n, light, 0xc0ffee);
+        let (converged, _) = render_reference_grid(scene, &camera, &conv_settings, rc, 2, k);
+        Ok(Self {
+            mask: surface_mask(scene, &wfic_settings, k),
+            radiance,
+            radiance_seconds,
+            wfic_seconds: own[0].1,
+            wfic_own: own.into_iter().map(|(img, _)| img).collect(),
+            wfic_settings,
+            converged,
+        })
+    }
+
+    fn radiance(&self) -> References<'_> {
+        References {
+            own: std::slice::from_ref(&self.radiance),
+            converged: &self.converged,
+            mask: &self.mask,
+        }
+    }
+
+    fn wfic(&self) -> References<'_> {
+        References {
+            own: &self.wfic_own,
+            converged: &self.converged,
+            mask: &self.mask,
+        }
+    }
+
+    /// The two references' own rows.
+    fn rows(&self, rays: u32) -> [Run; 2] {
+        let s = &self.wfic_settings;
+        let radiance = Run::new(
+            "radiance",
+            Role::Reference,
+            2,
+            None,
+            (0.0, 4 * rays),
+            (self.radiance_seconds, 0),
+        );
+        let wfic = Run::new(
+            "wfic",
+            Role::Reference,
+            2,
+            Some(s),
+            (0.0, s.rays_per_record),
+            (self.wfic_seconds, 0),
+        );
+        [
+            self.radiance().measured(radiance, &self.radiance, 0),
+            self.wfic().measured(wfic, &self.wfic_own[0], 0),
+        ]
+    }
+}
+
+/// The matched settings, Radiance's and wfic's, at 1 and 2 workers, `repeats` renders each;
+/// and each renderer's first image at 1 worker.
+fn matched(
+    config: &RadianceConfig,
+    scene: &Scene,
+    rtrace: &Rtrace,
+    refs: &SceneReferences,
+) -> Result<(Vec<Run>, Image, Image), String> {
+    let (name, n, a) = (scene.name(), config.rays, config.accuracy);
+    let repeats = config.repeats.max(1);
+    let mut runs = Vec::new();
+    let mut radiance_images = Vec::new();
+    for workers in [1, 2] {
+        let rows = repeat(repeats as usize, |i| {
+            say(
+                name,
+                &format!(
+                    "radiance: -aa {a} -ad {n} -ar {}, {workers} process(es), run {} of {repeats}",
+                    config.resolution,
+                    i + 1
+                ),
+            );
+            let setting = (a, n, config.resolution);
+            let (img, seconds, records, _) =
+                rtrace.cached(setting, workers, &format!("amb-{workers}-{i}"))?;
+            let run = Run::new(
+                "radiance",
+                Role::Matched,
+                workers,
+                None,
+                (a, n),
+                (seconds, records),
+            );
+            let run = refs.radiance().measured(run, &img, 0);
+            if i == 0 {
+                radiance_images.push(img);
+            }
+            Ok::<_, String>(run)
+        })?;
+        runs.push(Run::combine(rows));
+    }
+    let base = config.settings(a, n, config.light_samples, 0x5eed);
+    let mut wfic_images = Vec::new();
+    for workers in [1, 2] {
+        say(
+            name,
+            &format!("wfic: wf, a {a}, {n} rays, {workers} thread(s), {repeats} seed(s)"),
+        );
+        let (run, img) = refs
+            .wfic()
+            .wfic_frames(scene, Role::Matched, &base, workers)?;
+        runs.push(run);
+        wfic_images.push(img);
+    }
+    let (rad, wf) = (radiance_images.swap_remove(0), wfic_images.swap_remove(0));
+    Ok((runs, rad, wf))
+}
+
+/// The sweep of wfic's settings at 2 threads, each row with its settings, against its
+/// reference (whose rays stay `4N`).
+fn sweep(
+    config: &RadianceConfig,
+    scene: &Scene,
+    refs: &References,
+    target: f64,
+) -> Result<Vec<(Run, RenderSettings)>, String> {
+    let mut swept = Vec::new();
+    for &scale in &config.sweep_accuracy_scales {
+        // Rounded to 1e-3 so the tables read 0.2, not 0.20000002.
+        let sa = (config.accuracy * scale * 1000.0).round() / 1000.0;
+        for &rs in &config.sweep_rays_scales {
+            let sn = ((config.rays as f32 * rs).round() as u32).max(16);
+            for &rmin in &config.sweep_min_radius {
+                for &k in &config.sweep_smoothing {
+                    let mut s = config
+                        .settings(sa, sn, config.light_samples, 0x5eed)
+                        .smoothing(k);
+                    s.min_radius_pixels = rmin;
+                    let run = refs.wfic(scene, Role::Sweep, &s, 2)?;
+                    say(
+                        scene.name(),
+                        &format!(
+                            "sweep {}: {:.3} s, {} records, cache error {:.2}% (radiance {:.2}%)",
+                            report::wfic_setting(&run),
+                            run.seconds,
+                            run.records,
+                            100.0 * run.cache_error.rel_rmse,
+                            100.0 * target
+                        ),
+                    );
+                    swept.push((run, s));
+                }
+            }
+        }
+    }
+    Ok(swept)
+}
+
+/// Swept settings tried for a pick, cheapest first: the frame rendered again at the pick's
+/// worker count can err a little above the sweep's 2-thread one (records land in another
+/// order).
+const PICK_TRIES: usize = 4;
+
+/// A worker count's pick: whether it reached Radiance's error, its setting, its frames at 1
+/// and 2 workers (as measured so far), the worker counts it is the pick of.
+type Pick = (bool, RenderSettings, [Option<Run>; 2], Vec<usize>);
+
+/// Whether two settings are the same cache setting.
+fn same(x: &RenderSettings, y: &RenderSettings) -> bool {
+    let key = |s: &RenderSettings| {
+        (
+            s.accuracy,
+            s.rays_per_record,
+            s.min_radius_pixels,
+            s.smoothing,
+        )
+    };
+    key(x) == key(y)
+}
+
+/// Each worker count's pick: the cheapest swept setting at or below Radiance's error at that
+/// count (`targets[w]`) whose frame at that count, rendered again, errs at or below it too (up
+/// to [`PICK_TRIES`]); the most accurate swept one when none holds. Frames that erred above go
+/// to `runs` as [`Role::PickTried`]. One setting serves both counts when it is the same.
+fn picks(
+    scene: &Scene,
+    refs: &References,
+    swept: &[(Run, RenderSettings)],
+    targets: [f64; 2],
+    runs: &mut Vec<Run>,
+) -> Result<Vec<Pick>, String> {
+    let mut picks: Vec<Pick> = Vec::new();
+    for (w, &t) in targets.iter().enumerate() {
+        let workers = w + 1;
+        let mut found = None;
+        for (_, st) in swept
+            .iter()
+            .filter(|(r, _)| r.cache_error.rel_rmse <= t)
+            .take(PICK_TRIES)
+        {
+            if let Some((_, earlier, frames, _)) =
+                picks.iter().find(|(ok, p, _, _)| *ok && same(p, st))
+            {
+                // The other count's pick: its frame at this count is measured already.
+                if let Some(run) = frames[w].as_ref().filter(|r| r.cache_error.rel_rmse <= t) {
+                    found = Some((earlier.clone(), run.clone()));
+                    break;
+                }
+            }
+            let run = refs.wfic(scene, Role::PickTried, st, workers)?;
+            say(
+                scene.name(),
+                &format!(
+                    "{workers}-worker pick {}: cache error {:.2}% (radiance {:.2}%)",
+                    report::wfic_setting(&run),
+                    100.0 * run.cache_error.rel_rmse,
+                    100.0 * t
+                ),
+            );
+            if run.cache_error.rel_rmse <= t {
+                found = Some((st.clone(), run));
+                break;
+            }
+            runs.push(run);
+        }
+        let (reached, st, run) = match found {
+            Some((st, run)) => (true, st, Some(run)),
+            None => {
+                let most = swept
+                    .iter()
+                    .min_by(|x, y| {
+                        x.0.cache_error
+                            .rel_rmse
+                            .total_cmp(&y.0.cache_error.rel_rmse)
+                    })
+                    .expect("the sweep is not empty");
+                (false, most.1.clone(), None)
+            }
+        };
+        if let Some(pick) = picks
+            .iter_mut()
+            .find(|(ok, p, _, _)| *ok == reached && same(p, &st))
+        {
+            pick.2[w] = pick.2[w].take().or(run);
+            pick.3.push(workers);
+        } else {
+            let mut frames = [None, None];
+            frames[w] = run;
+            picks.push((reached, st, frames, vec![workers]));
+        }
+    }
+    Ok(picks)
+}
+
+/// Compares one scene (what [`run`] does per scene), its scratch files under
+/// `out_dir/work-NAME/`, its side-by-side image in `out_dir`.
+pub fn compare_scene(
+    bin: &RadianceBin,
+    config: &RadianceConfig,
+    scene: &Scene,
+    out_dir: &Path,
+) -> Result<SceneComparison, String> {
+    let name = scene.name().to_owned();
+    let work = out_dir.join(format!("work-{name}"));
+    let base = config.settings(config.accuracy, config.rays, config.light_samples, 0x5eed);
+    say(
+        &name,
+        &format!("exporting {} triangles to Radiance", scene.triangle_count()),
+    );
+    let rtrace = Rtrace::prepare(bin, scene, &base, config.reference_stride, &work)?;
+    let load = rtrace.load_seconds()?;
+    let refs = SceneReferences::render(config, scene, &rtrace)?;
+    let mut runs = refs.rows(config.rays).to_vec();
+    let (matched, radiance_image, wfic_image) = matched(config, scene, &rtrace, &refs)?;
+    runs.extend(matched);
+    // Radiance's cache error at 1 and at 2 workers: each worker count gets the cheapest sweep
+    // setting at or below its own (2 workers usually err less: they place more records).
+    let target_at = |workers: usize| {
+        runs.iter()
+            .find(|r| r.renderer == "radiance" && r.role == Role::Matched && r.workers == workers)
+            .map(|r| r.cache_error.rel_rmse)
+            .expect("measured above")
+    };
+    let targets = [target_at(1), target_at(2)];
+    let wfic_refs = refs.wfic();
+    let mut swept = sweep(config, scene, &wfic_refs, targets[0])?;
+    runs.extend(swept.iter().map(|(r, _)| r.clone()));
+    swept.sort_by(|x, y| x.0.seconds.total_cmp(&y.0.seconds));
+    let mut picks = picks(scene, &wfic_refs, &swept, targets, &mut runs)?;
+    for (reached, st, frames, counts) in &mut picks {
+        let workers = if counts.len() == 2 {
+            None
+        } else {
+            counts.first().copied()
+        };
+        let role = Role::Pick {
+            reached: *reached,
+            workers,
+        };
+        for (w, frame) in frames.iter_mut().enumerate() {
+            let mut run = match frame.take() {
+                Some(run) => run,
+                None => wfic_refs.wfic(scene, role, st, w + 1)?,
+            };
+            run.role = role;
+            runs.push(run);
+        }
+    }
+    // Image noise against light samples, at the 1-worker pick (the first), 1 and 2 threads.
+    for &l in &config.light_sweep {
+        let mut s = picks[0].1.clone();
+        s.light_samples = l;
+        for workers in [1, 2] {
+            let run = wfic_refs.wfic(scene, Role::LightSamples, &s, workers)?;
+            if workers == 2 {
+                say(
+                    &name,
+                    &format!(
+                        "light samples {l}: {:.3} s, image error {:.2}%",
+                        run.seconds,
+                        100.0 * run.image_error.rel_rmse
+                    ),
+                );
+            }
+            runs.push(run);
+        }
+    }
+    report::write_side_by_side(
+        &out_dir.join(format!("{name}-side-by-side.png")),
+        [&radiance_image, &wfic_image],
+        [&refs.radiance, &refs.wfic_own[0]],
+        &refs.mask,
+        config.reference_stride,
+    )?;
+    if !config.keep_work {
+        std::fs::remove_dir_all(&work).ok();
+    }
+    Ok(SceneComparison {
+        triangles: scene.triangle_count(),
+        source: scenes::info(&name).map_or("file", |i| i.source.name()),
+        radiance_load_seconds: load,
+        oconv_seconds: rtrace.oconv_seconds,
+        runs,
+        cross_check: image_error(&refs.radiance, &refs.converged, &refs.mask),
+        mean_ratio: masked_mean(&refs.radiance, &refs.mask)
+            / masked_mean(&refs.converged, &refs.mask),
+        scene: name,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::report::{csv, markdown, speed_goal};
+    use super::*;
+
+    /// The role named `name`.
+    fn r(name: &str) -> Role {
+        let pick = |reached, workers| Role::Pick { reached, workers };
+        [
+            Role::Reference,
+            Role::Matched,
+            Role::Sweep,
+            Role::PickTried,
+            Role::LightSamples,
+            pick(true, None),
+            pick(true, Some(1)),
+            pick(true, Some(2)),
+            pick(false, None),
+            pick(false, Some(1)),
+            pick(false, Some(2)),
+        ]
+        .into_iter()
+        .find(|r| r.name() == name)
+        .expect("a role's name")
+    }
+
+    /// One render of `renderer`'s `role` at `workers`: a 0.15, N 512, 8 light samples, 6 px,
+    /// 100 records, every error `error`. Tests change the fields they are about.
+    fn one_run(
+        renderer: &'static str,
+        role: Role,
+        workers: usize,
+        seconds: f64,
+        error: f64,
+    ) -> Run {
+        let e = ImageError {
+            rel_rmse: error,
+            mean_rel: error,
+        };
+        Run {
+            renderer,
+            role,
+            workers,
+            accuracy: 0.15,
+            rays: 512,
+            light_samples: 8,
+            min_radius_pixels: 6.0,
+            smoothing: 1.0,
+            seconds,
+            records: 100,
+            cache_error: e,
+            image_error: e,
+            repeats: 1,
+            cache_error_range: (error, error),
+        }
+    }
+
+    #[test]
+    fn the_speed_goal_needs_the_error_at_or_below_and_a_tenth_of_the_time() {
+        let run = |seconds: f64, error: f64| one_run("wfic", r("equal-error"), 1, seconds, error);
+        let rad = run(10.0, 0.02);
+        assert_eq!(speed_goal(r("equal-error"), &run(1.0, 0.02), &rad), "yes");
+        assert_eq!(
+            speed_goal(r("equal-error-2"), &run(0.5, 0.019), &rad),
+            "yes"
+        );
+        assert_eq!(speed_goal(r("equal-error"), &run(1.01, 0.01), &rad), "NO");
+        assert_eq!(
+            speed_goal(r("equal-error-1"), &run(0.5, 0.0201), &rad),
+            "NO: error above"
+        );
+        assert_eq!(speed_goal(r("most-accurate"), &run(0.5, 0.01), &rad), "NO");
+    }
+
+    #[test]
+    fn a_row_is_the_median_time_and_the_mean_error_of_its_renders() {
+        let run = |seconds: f64, error: f64, records: usize| Run {
+            records,
+            cache_error: ImageError {
+                rel_rmse: error,
+                mean_rel: 2.0 * error,
+            },
+            image_error: ImageError {
+                rel_rmse: 3.0 * error,
+                mean_rel: 4.0 * error,
+            },
+            cache_error_range: (0.0, 0.0),
+            ..one_run("wfic", r("sweep"), 2, seconds, error)
+        };
+        // A slow outlier moves the median not at all; the errors are averaged.
+        let row = Run::combine(vec![
+            run(1.0, 0.010, 100),
+            run(9.0, 0.013, 104),
+            run(1.2, 0.016, 101),
+        ]);
+        assert_eq!(row.seconds, 1.2);
+        assert_eq!(row.records, 101);
+        assert!((row.cache_error.rel_rmse - 0.013).abs() < 1e-12);
+        assert!((row.cache_error.mean_rel - 0.026).abs() < 1e-12);
+        assert!((row.image_error.rel_rmse - 0.039).abs() < 1e-12);
+        assert!((row.image_error.mean_rel - 0.052).abs() < 1e-12);
+        assert_eq!(row.cache_error_range, (0.010, 0.016));
+        assert_eq!(row.repeats, 3);
+        // An even count takes the middle two.
+        let row = Run::combine(vec![run(1.0, 0.01, 10), run(2.0, 0.01, 20)]);
+        assert_eq!((row.seconds, row.records), (1.5, 15));
+    }
+
+    #[test]
+    fn the_smoke_run_renders_each_setting_once_the_full_run_three_times() {
+        // CI's `--quick` run stays a smoke run; the committed one averages three renders.
+        assert_eq!(RadianceConfig::quick(vec![]).repeats, 1);
+        assert_eq!(RadianceConfig::full(vec![]).repeats, 3);
+    }
+
+    #[test]
+    fn the_tables_give_a_repeated_rows_range_and_the_csv_its_renders() {
+        let run = |renderer, role: Role, workers, seconds, error, range, repeats| Run {
+            min_radius_pixels: 12.0,
+            repeats,
+            cache_error_range: range,
+            ..one_run(renderer, role, workers, seconds, error)
+        };
+        let comparison = SceneComparison {
+            scene: "cornell".into(),
+            triangles: 32,
+            source: "real",
+            radiance_load_seconds: 0.0,
+            oconv_seconds: 0.0,
+            runs: vec![
+                run(
+                    "radiance",
+                    r("matched"),
+                    1,
+                    2.0,
+                    0.0118,
+                    (0.0116, 0.0121),
+                    3,
+                ),
+                run(
+                    "radiance",
+                    r("matched"),
+                    2,
+                    1.5,
+                    0.0119,
+                    (0.0114, 0.0122),
+                    3,
+                ),
+                run(
+                    "wfic",
+                    r("equal-error"),
+                    1,
+                    0.3,
+                    0.0118,
+                    (0.0112, 0.0128),
+                    3,
+                ),
+                Run {
+                    smoothing: 1.5,
+                    ..run(
+                        "wfic",
+                        r("equal-error"),
+                        2,
+                        0.1,
+                        0.0115,
+                        (0.0115, 0.0115),
+                        1,
+                    )
+                },
+            ],
+            cross_check: ImageError {
+                rel_rmse: 0.0,
+                mean_rel: 0.0,
+            },
+            mean_ratio: 1.0,
+        };
+        let config = RadianceConfig::full(vec!["cornell".into()]);
+        let md = markdown(&config, std::slice::from_ref(&comparison), "R");
+        let row = |workers: usize| {
+            md.lines()
+                .find(|l| l.starts_with(&format!("| cornell | {workers} | ")))
+                .unwrap_or_else(|| panic!("no equal-error row for {workers} in\n{md}"))
+                .to_owned()
+        };
+        // Three renders: the mean with its range; one render: the error alone.
+        assert!(row(1).contains("| 1.18% (1.16%–1.21%) |"), "{}", row(1));
+        assert!(row(1).contains("| 1.18% (1.12%–1.28%) |"), "{}", row(1));
+        assert!(row(1).contains("a 0.15 N 512 r_min 12 px"), "{}", row(1));
+        assert!(row(2).contains("| 1.15% |"), "{}", row(2));
+        // A smoothed row says so; an unsmoothed one does not.
+        assert!(
+            row(2).contains("a 0.15 N 512 r_min 12 px k 1.5 |"),
+            "{}",
+            row(2)
+        );
+        assert!(!row(1).contains(" k "), "{}", row(1));
+        assert!(md.contains("is 3 render(s) of its setting"), "{md}");
+        let csv = csv(std::slice::from_ref(&comparison));
+        let header: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
+        let line: Vec<&str> = csv.lines().nth(3).unwrap().split(',').collect();
+        let col = |name: &str| line[header.iter().position(|h| *h == name).unwrap()];
+        assert_eq!(
+            (
+                col("repeats"),
+                col("cache_rel_rmse_min"),
+                col("cache_rel_rmse_max")
+            ),
+            ("3", "0.011200", "0.012800")
+        );
+        assert_eq!(col("smoothing"), "1");
+        let last: Vec<&str> = csv.lines().nth(4).unwrap().split(',').collect();
+        assert_eq!(
+            last[header.iter().position(|h| *h == "smoothing").unwrap()],
+            "1.5"
+        );
+    }
+}

@@ -1,0 +1,510 @@
+//! The comparison's report: `radiance.md` (the matched rows, the time at equal error, the
+//! image noise against light samples, the sweep, the cross-check), `radiance.csv` (every run)
+//! and the side-by-side images.
+
+use super::{RadianceConfig, Role, Run, SceneComparison};
+use crate::harness::table::{pct, Table};
+use std::fmt::Write as _;
+use std::path::Path;
+use wfic_render::film::Image;
+use wfic_render::scene::luminance;
+
+/// A false-colour map of `|L - L_ref| / L_ref` (black 0, through red, to yellow-white at 20% and
+/// above), grey where the pixel is not measured; each measured pixel of the `stride` grid fills
+/// its `stride` x `stride` block.
+fn error_map(img: &Image, reference: &Image, mask: &[bool], stride: u32) -> Vec<[u8; 3]> {
+    let w = img.width();
+    (0..img.pixels().len())
+        .map(|i| {
+            let (x, y) = (i as u32 % w, i as u32 / w);
+            let (gx, gy) = (
+                (x / stride * stride + stride / 2).min(w - 1),
+                (y / stride * stride + stride / 2).min(img.height() - 1),
+            );
+            let j = (gy * w + gx) as usize;
+            if !mask[j] {
+                return [60, 60, 60];
+            }
+            let (a, b) = (img.pixels()[j], reference.pixels()[j]);
+            let (la, lb) = (luminance(a), luminance(b));
+            let e = if lb > 0.0 {
+                ((la - lb).abs() / lb / 0.2).min(1.0)
+            } else {
+                1.0
+            };
+            let r = (e * 3.0).min(1.0);
+            let g = (e * 3.0 - 1.0).clamp(0.0, 1.0);
+            let bl = (e * 3.0 - 2.0).clamp(0.0, 1.0);
+            [(r * 255.0) as u8, (g * 255.0) as u8, (bl * 255.0) as u8]
+        })
+        .collect()
+}
+
+/// Radiance's cached image beside wfic's (one exposure for both), their error maps against
+/// their own references below.
+pub fn write_side_by_side(
+    path: &Path,
+    [radiance, wfic]: [&Image; 2],
+    [radiance_ref, wfic_ref]: [&Image; 2],
+    mask: &[bool],
+    stride: u32,
+) -> Result<(), String> {
+    let (w, h) = (wfic.width(), wfic.height());
+    let gap = 8u32;
+    let (cw, ch) = (2 * w + gap, 2 * h + gap);
+    let mut canvas = vec![255u8; (cw * ch * 3) as usize];
+    let exposure = wfic.auto_exposure();
+    let mut blit = |x0: u32, y0: u32, rgb: &[[u8; 3]]| {
+        for (i, p) in rgb.iter().enumerate() {
+            let (x, y) = (x0 + i as u32 % w, y0 + i as u32 / w);
+            let at = ((y * cw + x) * 3) as usize;
+            canvas[at..at + 3].copy_from_slice(p);
+        }
+    };
+    let tone = |img: &Image| -> Vec<[u8; 3]> {
+        img.to_srgb8(exposure)
+            .chunks_exact(3)
+            .map(|c| [c[0], c[1], c[2]])
+            .collect()
+    };
+    blit(0, 0, &tone(radiance));
+    blit(w + gap, 0, &tone(wfic));
+    blit(0, h + gap, &error_map(radiance, radiance_ref, mask, stride));
+    blit(w + gap, h + gap, &error_map(wfic, wfic_ref, mask, stride));
+    image::save_buffer(path, &canvas, cw, ch, image::ColorType::Rgb8)
+        .map_err(|e| format!("{}: {e}", path.display()))
+}
+
+/// The goal column of the equal-error table: `yes` when the wfic run in `role` (a pick that
+/// reached Radiance's error) errs at or below Radiance's run `rad` and takes at most 0.1x its
+/// time. The pick comes from the sweep's frame, so the frame rendered again can err above: it
+/// says so.
+pub fn speed_goal(role: Role, wf: &Run, rad: &Run) -> &'static str {
+    if !matches!(role, Role::Pick { reached: true, .. }) {
+        "NO"
+    } else if wf.cache_error.rel_rmse > rad.cache_error.rel_rmse {
+        "NO: error above"
+    } else if wf.seconds <= 0.1 * rad.seconds {
+        "yes"
+    } else {
+        "NO"
+    }
+}
+
+/// A row's mean cache error, with the range of its renders when there were several.
+fn with_range(run: &Run) -> String {
+    if run.repeats > 1 {
+        let (lo, hi) = run.cache_error_range;
+        format!(
+            "{} ({}–{})",
+            pct(run.cache_error.rel_rmse),
+            pct(lo),
+            pct(hi)
+        )
+    } else {
+        pct(run.cache_error.rel_rmse)
+    }
+}
+
+/// A wfic row's setting as the tables name it: `a 0.15 N 320 r_min 6 px`, with `k 1.5` after it
+/// when the row smooths.
+pub fn wfic_setting(run: &Run) -> String {
+    format!(
+        "a {} N {} r_min {} px{}",
+        run.accuracy,
+        run.rays,
+        run.min_radius_pixels,
+        smoothing_label(run)
+    )
+}
+
+/// ` k K` for a row that smooths (K above 1), else nothing.
+fn smoothing_label(run: &Run) -> String {
+    if run.smoothing > 1.0 {
+        format!(" k {}", run.smoothing)
+    } else {
+        String::new()
+    }
+}
+
+/// The page's opening: the settings of both renderers and how the errors are measured.
+fn intro(config: &RadianceConfig, version: &str) -> String {
+    let ((w, h), n, k) = (config.size, config.rays, config.reference_stride);
+    format!(
+        "Radiance: {version}.\n\n\
+         {w} x {h}, one ray per pixel (wfic's primary rays fed to `rtrace -if`). Radiance: \
+         `rtrace -ab 1 -ad {n} -as 0 -aa {} -ar {} -av 0 0 0 -aw 0 -dj 0 -lw 1e-7 -n P -af FILE` \
+         (direct light deterministic, `-dt`/`-dc`/`-ds` at Radiance's defaults); reference `-aa 0 -ad {}`. \
+         wfic: `wf`, accuracy {}, {n} rays per record, {} light samples, radius clamps at their \
+         defaults (6 to 120 pixel footprints); reference `--scheme none` with {} rays. Converged \
+         reference: wfic `none`, {} rays, {} light samples, another seed. The references are traced \
+         at one pixel of every {k} x {k} block, and every error is measured on those pixels: \
+         relative RMSE of luminance over the ones that do not see an emitter (mean relative error \
+         in brackets, over the pixels brighter than 1% of the mean). Times are wall-clock seconds \
+         of the frame (Radiance: the `rtrace` process, loading its octree included; the load \
+         alone is listed below). Every row but the references is {} render(s) of its setting \
+         (Radiance: runs with a fresh ambient file each; wfic: seeds, each against its own seed's \
+         brute-force image): the median time and record count, the mean errors. A wfic setting \
+         ending in `k K` smooths: it computes the records Ward's cache computes at its accuracy \
+         `a`, and each pixel interpolates all those valid at `K a`.\n",
+        config.accuracy,
+        config.resolution,
+        4 * n,
+        config.accuracy,
+        config.light_samples,
+        4 * n,
+        4 * n,
+        config.converged_light_samples,
+        config.repeats.max(1)
+    )
+}
+
+/// A scene's run paired with the scene's comparison, a row of the tables.
+type Row<'a> = (&'a SceneComparison, &'a Run);
+
+/// The matched rows and each pick's, at 1 and 2 workers.
+fn matched_markdown(results: &[SceneComparison]) -> String {
+    let pick = |reached, workers| Role::Pick { reached, workers };
+    let mut rows: Vec<(Row, &Run)> = Vec::new();
+    for r in results {
+        for (renderer, role) in [
+            ("radiance", Role::Matched),
+            ("wfic", Role::Matched),
+            ("wfic", pick(true, None)),
+            ("wfic", pick(false, None)),
+            ("wfic", pick(true, Some(1))),
+            ("wfic", pick(false, Some(1))),
+            ("wfic", pick(true, Some(2))),
+            ("wfic", pick(false, Some(2))),
+        ] {
+            if let (Some(one), Some(two)) = (r.find(renderer, role, 1), r.find(renderer, role, 2)) {
+                rows.extend([((r, one), one), ((r, two), one)]);
+            }
+        }
+    }
+    let t = Table::new()
+        .md("scene", |((r, _), _): &(Row, &Run)| r.scene.clone())
+        .left()
+        .md("triangles", |((r, _), _)| r.triangles.to_string())
+        .md("source", |((r, _), _)| r.source.to_owned())
+        .left()
+        .md("renderer", |((_, run), _)| run.renderer.to_owned())
+        .left()
+        .md("workers", |((_, run), _)| run.workers.to_string())
+        .md("setting", |((_, run), _)| {
+            let wfic = format!(
+                " L {} r_min {} px{}",
+                run.light_samples,
+                run.min_radius_pixels,
+                smoothing_label(run)
+            );
+            let extra = if run.renderer == "wfic" {
+                wfic
+            } else {
+                String::new()
+            };
+            format!("{}: a {} N {}{extra}", run.role, run.accuracy, run.rays)
+        })
+        .left()
+        .md("seconds", |((_, run), _)| format!("{:.3}", run.seconds))
+        .md("records", |((_, run), _)| run.records.to_string())
+        .md("records 2/1", |((_, run), one)| {
+            let ratio = run.records as f64 / one.records.max(1) as f64;
+            if run.workers == 2 {
+                format!("{ratio:.3}")
+            } else {
+                String::new()
+            }
+        })
+        .md("cache error", |((_, run), _)| {
+            format!(
+                "{} ({})",
+                pct(run.cache_error.rel_rmse),
+                pct(run.cache_error.mean_rel)
+            )
+        })
+        .md("image error", |((_, run), _)| {
+            format!(
+                "{} ({})",
+                pct(run.image_error.rel_rmse),
+                pct(run.image_error.mean_rel)
+            )
+        });
+    t.markdown(&rows)
+}
+
+/// One row of the equal-error table: a scene's worker count, Radiance's matched run, the
+/// count's pick and its frames at 1 and 2 workers.
+struct EqualError<'a> {
+    scene: &'a str,
+    workers: usize,
+    rad: &'a Run,
+    role: Role,
+    wf: &'a Run,
+    extra: f64,
+}
+
+/// The time at equal error, each scene's worker counts.
+fn equal_error_markdown(config: &RadianceConfig, results: &[SceneComparison]) -> String {
+    let mut rows = Vec::new();
+    for r in results {
+        for workers in [1, 2] {
+            // This worker count's pick: one setting for both, or one each.
+            let own = [
+                Role::Pick {
+                    reached: true,
+                    workers: None,
+                },
+                Role::Pick {
+                    reached: false,
+                    workers: None,
+                },
+                Role::Pick {
+                    reached: true,
+                    workers: Some(workers),
+                },
+                Role::Pick {
+                    reached: false,
+                    workers: Some(workers),
+                },
+            ];
+            let Some(role) = own
+                .into_iter()
+                .find(|&role| r.find("wfic", role, workers).is_some())
+            else {
+                continue;
+            };
+            let (Some(rad), Some(wf)) = (
+                r.find("radiance", Role::Matched, workers),
+                r.find("wfic", role, workers),
+            ) else {
+                continue;
+            };
+            let extra = match (r.find("wfic", role, 1), r.find("wfic", role, 2)) {
+                (Some(a), Some(b)) => b.records as f64 / a.records.max(1) as f64 - 1.0,
+                _ => f64::NAN,
+            };
+            rows.push(EqualError {
+                scene: &r.scene,
+                workers,
+                rad,
+                role,
+                wf,
+                extra,
+            });
+        }
+    }
+    let t = Table::new()
+        .md("scene", |e: &EqualError| e.scene.to_owned())
+        .left()
+        .md("workers", |e| e.workers.to_string())
+        .md("radiance s", |e| format!("{:.3}", e.rad.seconds))
+        .md("radiance cache error (range)", |e| with_range(e.rad))
+        .md("wfic setting", |e| {
+            format!("{}: {}", e.role, wfic_setting(e.wf))
+        })
+        .left()
+        .md("wfic s", |e| format!("{:.3}", e.wf.seconds))
+        .md("wfic cache error (range)", |e| with_range(e.wf))
+        .md("time ratio wfic/radiance", |e| {
+            format!("{:.4}", e.wf.seconds / e.rad.seconds)
+        })
+        .md("goal <= 0.1", |e| {
+            speed_goal(e.role, e.wf, e.rad).to_owned()
+        })
+        .left()
+        .md("extra records at 2 (wfic)", |e| pct(e.extra))
+        .md("goal <= 2%", |e| {
+            if e.extra <= 0.02 { "yes" } else { "NO" }.to_owned()
+        })
+        .left();
+    format!(
+        "\n## Time at equal error\n\n\
+         Each worker count's wfic setting is the cheapest swept one (2 threads) at or below \
+         Radiance's cache error at that worker count. The goal holds when the frames rendered \
+         again at that setting err at or below Radiance (else `NO: error above`) and take at \
+         most 0.1x its time. A swept setting whose frames at that worker count erred above is \
+         passed over for the next cheapest (up to 4 tries; `radiance.csv` lists them as \
+         `pick-tried`). With {} render(s) a row, errors are means (the range of the renders in \
+         brackets) and times medians.\n\n{}",
+        config.repeats.max(1),
+        t.markdown(&rows)
+    )
+}
+
+/// Image noise against light samples at the pick: each count at 2 threads (1 thread beside
+/// it), and whether it is at or below Radiance's image error; the smallest such count marked.
+fn light_markdown(results: &[SceneComparison]) -> String {
+    // (scene's row at 2 threads, its 1-thread row, Radiance at 1 and 2 workers, verdict)
+    type Light<'a> = (Row<'a>, &'a Run, [&'a Run; 2], &'static str);
+    let mut rows: Vec<Light> = Vec::new();
+    for r in results {
+        let Some(rad) = r.find("radiance", Role::Matched, 1) else {
+            continue;
+        };
+        let rad2 = r.find("radiance", Role::Matched, 2).unwrap_or(rad);
+        let light = |workers, samples: Option<u32>| {
+            r.runs.iter().filter(move |x| {
+                x.role == Role::LightSamples
+                    && x.workers == workers
+                    && samples.is_none_or(|l| x.light_samples == l)
+            })
+        };
+        let mut first = true;
+        for run in light(2, None) {
+            let one = light(1, Some(run.light_samples)).next().unwrap_or(run);
+            let meets = run.image_error.rel_rmse <= rad.image_error.rel_rmse;
+            let verdict = match (meets, first) {
+                (true, true) => "**yes: the smallest count**",
+                (true, false) => "yes",
+                _ => "no",
+            };
+            rows.push(((r, run), one, [rad, rad2], verdict));
+            first &= !meets;
+        }
+    }
+    let t = Table::new()
+        .md("scene", |((r, _), ..): &Light| r.scene.clone())
+        .left()
+        .md("radiance image error (1 worker)", |(_, _, [rad, _], _)| {
+            pct(rad.image_error.rel_rmse)
+        })
+        .md("light samples", |((_, run), ..)| {
+            run.light_samples.to_string()
+        })
+        .md("wfic s, 1 thread", |(_, one, ..)| {
+            format!("{:.3}", one.seconds)
+        })
+        .md("wfic s, 2 threads", |((_, run), ..)| {
+            format!("{:.3}", run.seconds)
+        })
+        .md("wfic image error", |((_, run), ..)| {
+            pct(run.image_error.rel_rmse)
+        })
+        .md("at or below radiance", |(.., verdict)| {
+            (*verdict).to_owned()
+        })
+        .left()
+        .md(
+            "time ratio to radiance, 1 / 2 workers",
+            |((_, run), one, [r1, r2], _)| {
+                format!(
+                    "{:.4} / {:.4}",
+                    one.seconds / r1.seconds,
+                    run.seconds / r2.seconds
+                )
+            },
+        )
+        .left();
+    format!(
+        "\n## Image noise against light samples (wfic at the equal-error cache setting)\n\n{}",
+        t.markdown(&rows)
+    )
+}
+
+/// The sweep and the references, and the cross-check of both renderers' brute force.
+fn sweep_markdown(results: &[SceneComparison]) -> String {
+    let rows: Vec<Row> = results
+        .iter()
+        .flat_map(|r| r.runs.iter().map(move |run| (r, run)))
+        .filter(|(_, run)| matches!(run.role, Role::Sweep | Role::Reference))
+        .collect();
+    let t = Table::new()
+        .md("scene", |(r, _): &Row| r.scene.clone())
+        .left()
+        .md("renderer", |(_, run)| run.renderer.to_owned())
+        .left()
+        .md("role", |(_, run)| run.role.to_string())
+        .left()
+        .md("a", |(_, run)| run.accuracy.to_string())
+        .md("N", |(_, run)| run.rays.to_string())
+        .md("L", |(_, run)| run.light_samples.to_string())
+        .md("r_min px", |(_, run)| run.min_radius_pixels.to_string())
+        .md("k", |(_, run)| run.smoothing.to_string())
+        .md("seconds", |(_, run)| format!("{:.3}", run.seconds))
+        .md("records", |(_, run)| run.records.to_string())
+        .md("cache error", |(_, run)| pct(run.cache_error.rel_rmse))
+        .md("image error", |(_, run)| pct(run.image_error.rel_rmse));
+    let cross = Table::new()
+        .md("scene", |r: &SceneComparison| r.scene.clone())
+        .left()
+        .md("Radiance brute force vs converged wfic: error", |r| {
+            format!(
+                "{} ({})",
+                pct(r.cross_check.rel_rmse),
+                pct(r.cross_check.mean_rel)
+            )
+        })
+        .md("mean luminance ratio", |r| format!("{:.4}", r.mean_ratio))
+        .md("rtrace load + 1 ray (s)", |r| {
+            format!("{:.3}", r.radiance_load_seconds)
+        })
+        .md("oconv (s)", |r| format!("{:.3}", r.oconv_seconds));
+    format!(
+        "\n## The sweep (wfic, 2 threads) and the references\n\n{}\n\
+         ## Cross-check and load times\n\n{}",
+        t.markdown(&rows),
+        cross.markdown(results)
+    )
+}
+
+/// `radiance.md`'s body.
+pub fn markdown(config: &RadianceConfig, results: &[SceneComparison], version: &str) -> String {
+    let mut s = intro(config, version);
+    s.push_str(&matched_markdown(results));
+    s.push_str(&equal_error_markdown(config, results));
+    s.push_str(&light_markdown(results));
+    s.push_str(&sweep_markdown(results));
+    let _ = writeln!(
+        s,
+        "\nSide-by-side images: `SCENE-side-by-side.png` (top: Radiance, wfic, cached, one \
+         exposure; bottom: each one's relative error against its own brute-force image, black 0 \
+         to white 20%, grey: not measured)."
+    );
+    s
+}
+
+/// Every run as CSV.
+pub fn csv(results: &[SceneComparison]) -> String {
+    let rows: Vec<Row> = results
+        .iter()
+        .flat_map(|r| r.runs.iter().map(move |run| (r, run)))
+        .collect();
+    let e6 = |x: f64| format!("{x:.6}");
+    Table::new()
+        .csv("scene", |(r, _): &Row| r.scene.clone())
+        .csv("triangles", |(r, _)| r.triangles.to_string())
+        .csv("source", |(r, _)| r.source.to_owned())
+        .csv("renderer", |(_, run)| run.renderer.to_owned())
+        .csv("role", |(_, run)| run.role.to_string())
+        .csv("workers", |(_, run)| run.workers.to_string())
+        .csv("accuracy", |(_, run)| run.accuracy.to_string())
+        .csv("rays", |(_, run)| run.rays.to_string())
+        .csv("light_samples", |(_, run)| run.light_samples.to_string())
+        .csv("min_radius_pixels", |(_, run)| {
+            run.min_radius_pixels.to_string()
+        })
+        .csv("smoothing", |(_, run)| run.smoothing.to_string())
+        .csv("seconds", |(_, run)| format!("{:.4}", run.seconds))
+        .csv("records", |(_, run)| run.records.to_string())
+        .csv("cache_rel_rmse", move |(_, run)| {
+            e6(run.cache_error.rel_rmse)
+        })
+        .csv("cache_mean_rel", move |(_, run)| {
+            e6(run.cache_error.mean_rel)
+        })
+        .csv("image_rel_rmse", move |(_, run)| {
+            e6(run.image_error.rel_rmse)
+        })
+        .csv("image_mean_rel", move |(_, run)| {
+            e6(run.image_error.mean_rel)
+        })
+        .csv("repeats", |(_, run)| run.repeats.to_string())
+        .csv("cache_rel_rmse_min", move |(_, run)| {
+            e6(run.cache_error_range.0)
+        })
+        .csv("cache_rel_rmse_max", move |(_, run)| {
+            e6(run.cache_error_range.1)
+        })
+        .csv_text(&rows)
+}

@@ -1,0 +1,399 @@
+//! Radiance's side of the comparisons: finding its binaries, exporting a wfic scene, feeding
+//! it wfic's primary rays, and timing `rtrace` runs (a brute-force reference, cached runs on
+//! one ambient file shared by `P` processes).
+
+use crate::harness::measure::time_command;
+use crate::harness::metrics::{image_error, surface_mask, ImageError};
+use glam::Vec3;
+use std::io::{BufWriter, Write};
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+use wfic_render::film::Image;
+use wfic_render::{RenderSettings, Scene};
+
+/// Radiance's binaries: where they are and the `RAYPATH` they need.
+#[derive(Clone, Debug)]
+pub struct RadianceBin {
+    dir: PathBuf,
+    raypath: Option<String>,
+}
+
+/// Where `pip install pyradiance` puts the binaries, for the error message.
+const INSTALL_HINT: &str = "Radiance's `rtrace` was not found. Install it with `pip install pyradiance` \
+(x86-64 Linux, Python 3.11 wheel): the binaries land in the package's `bin/` folder, \
+`<site-packages>/pyradiance/bin` (for example ~/.local/lib/python3.11/site-packages/pyradiance/bin \
+or /usr/local/lib/python3.11/site-packages/pyradiance/bin; `python3 -m pip show -f pyradiance` lists it). \
+wfic looks on PATH, in WFIC_RADIANCE_BIN, and in an installed pyradiance package.";
+
+impl RadianceBin {
+    /// Finds `rtrace`: the folder `WFIC_RADIANCE_BIN` names, then `PATH`, then an installed
+    /// `pyradiance` package (asked of `python3` without importing it). `RAYPATH` is taken from
+    /// the environment, or set to the `lib/` folder next to the binaries when that holds
+    /// `rayinit.cal` (pyradiance's layout).
+    pub fn find() -> Result<Self, String> {
+        let mut candidates: Vec<PathBuf> = Vec::new();
+        if let Some(dir) = std::env::var_os("WFIC_RADIANCE_BIN") {
+            candidates.push(PathBuf::from(dir));
+        }
+        if let Some(path) = std::env::var_os("PATH") {
+            candidates.extend(std::env::split_paths(&path));
+        }
+        if let Some(dir) = pyradiance_dir() {
+            candidates.push(dir.join("bin"));
+        }
+        let dir = candidates
+            .into_iter()
+            .find(|d| d.join("rtrace").is_file() && d.join("oconv").is_file())
+            .ok_or_else(|| INSTALL_HINT.to_owned())?;
+        let raypath = match std::env::var("RAYPATH") {
+            Ok(p) if !p.is_empty() => Some(p),
+            _ => {
+                let lib = dir.parent().map(|p| p.join("lib"));
+                lib.filter(|l| l.join("rayinit.cal").is_file())
+                    .map(|l| format!(".:{}", l.display()))
+            }
+        };
+        Ok(Self { dir, raypath })
+    }
+
+    fn command(&self, tool: &str) -> Command {
+        let mut c = Command::new(self.dir.join(tool));
+        if let Some(p) = &self.raypath {
+            c.env("RAYPATH", p);
+        }
+        c
+    }
+
+    /// `rtrace -version`'s answer.
+    pub fn version(&self) -> String {
+        self.command("rtrace")
+            .arg("-version")
+            .output()
+            .ok()
+            .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_owned())
+            .unwrap_or_else(|| "unknown".to_owned())
+    }
+}
+
+/// The `pyradiance` package folder, if `python3` knows one (found without importing it, which
+/// would need numpy).
+fn pyradiance_dir() -> Option<PathBuf> {
+    let out = Command::new("python3")
+        .args([
+            "-c",
+            "import importlib.util as u; s = u.find_spec('pyradiance'); \
+             print(s.submodule_search_locations[0] if s else '')",
+        ])
+        .stderr(Stdio::null())
+        .output()
+        .ok()?;
+    let dir = String::from_utf8_lossy(&out.stdout).trim().to_owned();
+    (!dir.is_empty()).then(|| PathBuf::from(dir))
+}
+
+/// Runs `cmd`, feeding `stdin` from a file and writing stdout to a file; its wall seconds.
+fn run_to_file(
+    mut cmd: Command,
+    stdin: Option<&Path>,
+    stdout: &Path,
+    what: &str,
+) -> Result<f64, String> {
+    let out = std::fs::File::create(stdout).map_err(|e| format!("{}: {e}", stdout.display()))?;
+    cmd.stdout(out);
+    if let Some(i) = stdin {
+        cmd.stdin(std::fs::File::open(i).map_err(|e| format!("{}: {e}", i.display()))?);
+    }
+    Ok(time_command(&mut cmd, what)?.1)
+}
+
+/// Writes the scene as a Radiance scene file: one `plastic` (no specular: Lambertian) or
+/// `light` per material, one `polygon` per triangle, corners in wfic's winding order (Radiance's
+/// front side, from which a `light` emits, is the one the right-hand rule points to, as in wfic).
+pub fn write_rad(scene: &Scene, path: &Path) -> Result<usize, String> {
+    let io = |e: std::io::Error| format!("{}: {e}", path.display());
+    let mut w = BufWriter::new(std::fs::File::create(path).map_err(io)?);
+    writeln!(
+        w,
+        "# {} exported by wfic {}: {} triangles",
+        scene.name(),
+        env!("CARGO_PKG_VERSION"),
+        scene.triangle_count()
+    )
+    .map_err(io)?;
+    for (i, m) in scene.materials().iter().enumerate() {
+        if m.is_emissive() {
+            let e = m.emission;
+            writeln!(w, "void light m{i}\n0\n0\n3 {} {} {}\n", e.x, e.y, e.z).map_err(io)?;
+        } else {
+            let a = m.albedo;
+            writeln!(
+                w,
+                "void plastic m{i}\n0\n0\n5 {} {} {} 0 0\n",
+                a.x, a.y, a.z
+            )
+            .map_err(io)?;
+        }
+    }
+    let tris = scene.triangles();
+    for (k, ([a, b, c], m)) in tris.iter().enumerate() {
+        writeln!(
+            w,
+            "m{m} polygon t{k}\n0\n0\n9 {} {} {} {} {} {} {} {} {}",
+            a.x, a.y, a.z, b.x, b.y, b.z, c.x, c.y, c.z
+        )
+        .map_err(io)?;
+    }
+    w.flush().map_err(io)?;
+    Ok(tris.len())
+}
+
+/// wfic's primary rays for `settings`' image (one through each pixel's centre, rows from the
+/// top), as `rtrace -if` reads them: origin and direction, six native-endian `f32`s a pixel.
+fn write_rays(
+    scene: &Scene,
+    settings: &RenderSettings,
+    stride: u32,
+    path: &Path,
+) -> Result<(), String> {
+    let view = scene.camera().view(settings.width, settings.height);
+    let mut bytes = Vec::with_capacity((settings.width * settings.height * 24) as usize);
+    for y in (stride / 2..settings.height).step_by(stride as usize) {
+        for x in (stride / 2..settings.width).step_by(stride as usize) {
+            let d = view.direction(x as f32 + 0.5, y as f32 + 0.5);
+            let o = view.eye();
+            for c in [o.x, o.y, o.z, d.x, d.y, d.z] {
+                bytes.extend_from_slice(&c.to_ne_bytes());
+            }
+        }
+    }
+    std::fs::write(path, bytes).map_err(|e| format!("{}: {e}", path.display()))
+}
+
+/// Reads `rtrace -ff` output (three `f32`s a ray, the rays of [`write_rays`] with `stride`)
+/// into a `w` x `h` image (black where no ray was traced).
+fn read_floats(path: &Path, (w, h): (u32, u32), stride: u32) -> Result<Image, String> {
+    let bytes = std::fs::read(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    let (sw, sh) = (
+        (stride / 2..w).step_by(stride as usize).count() as u32,
+        (stride / 2..h).step_by(stride as usize).count() as u32,
+    );
+    let want = (sw * sh * 12) as usize;
+    if bytes.len() != want {
+        return Err(format!(
+            "{}: {} bytes, expected {want} ({w} x {h} RGB floats)",
+            path.display(),
+            bytes.len()
+        ));
+    }
+    let mut img = Image::new(w, h);
+    for (i, px) in bytes.chunks_exact(12).enumerate() {
+        let f = |k: usize| f32::from_ne_bytes(px[k..k + 4].try_into().expect("4 bytes"));
+        let (x, y) = (i as u32 % sw, i as u32 / sw);
+        img.set(
+            stride / 2 + x * stride,
+            stride / 2 + y * stride,
+            Vec3::new(f(0), f(4), f(8)),
+        );
+    }
+    Ok(img)
+}
+
+/// `rtrace` on the octree `oct` as both comparisons run it: one bounce (`-ab 1`), no ambient
+/// value or weight, deterministic direct light (`-dj 0`), binary floats in and out, `workers`
+/// processes, sharing the ambient file `amb` when given; `args` add the cache's settings.
+fn rtrace_command(
+    bin: &RadianceBin,
+    oct: &Path,
+    args: &[String],
+    workers: usize,
+    amb: Option<&Path>,
+) -> Command {
+    let mut c = bin.command("rtrace");
+    c.args(["-h-", "-fff", "-ab", "1", "-av", "0", "0", "0", "-aw", "0"]);
+    c.args(["-dj", "0", "-lw", "1e-7"]);
+    c.args(args);
+    c.args(["-n", &workers.to_string()]);
+    if let Some(amb) = amb {
+        c.arg("-af").arg(amb);
+    }
+    c.arg(oct);
+    c
+}
+
+/// Records in a Radiance ambient file, counted from `lookamb -h`'s text (one `Position` line a
+/// record). A missing file (no record was written) counts 0.
+fn ambient_records(bin: &RadianceBin, amb: &Path) -> Result<usize, String> {
+    if !amb.exists() {
+        return Ok(0);
+    }
+    let out = bin
+        .command("lookamb")
+        .arg("-h")
+        .arg(amb)
+        .output()
+        .map_err(|e| format!("lookamb: {e}"))?;
+    if !out.status.success() {
+        return Err(format!(
+            "lookamb {}: {}",
+            amb.display(),
+            String::from_utf8_lossy(&out.stderr).trim()
+        ));
+    }
+    Ok(String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .filter(|l| l.trim_start().starts_with("Position"))
+        .count())
+}
+
+/// A scene exported for Radiance in a work folder: its octree, wfic's primary rays (every
+/// pixel's, and the reference grid's), and the `rtrace` runs made on them.
+pub struct Rtrace<'a> {
+    bin: &'a RadianceBin,
+    work: PathBuf,
+    oct: PathBuf,
+    rays: PathBuf,
+    grid_rays: PathBuf,
+    size: (u32, u32),
+    stride: u32,
+    /// Seconds of `oconv` (timed apart, like wfic's BVH build).
+    pub oconv_seconds: f64,
+}
+
+impl<'a> Rtrace<'a> {
+    /// Exports `scene` into `work` (created): the scene file, its octree, the rays of
+    /// `settings`' image and of its grid of one pixel in `stride` x `stride`.
+    pub fn prepare(
+        bin: &'a RadianceBin,
+        scene: &Scene,
+        settings: &RenderSettings,
+        stride: u32,
+        work: &Path,
+    ) -> Result<Self, String> {
+        std::fs::create_dir_all(work).map_err(|e| format!("{}: {e}", work.display()))?;
+        let rad = work.join("scene.rad");
+        write_rad(scene, &rad)?;
+        let oct = work.join("scene.oct");
+        let mut oconv = bin.command("oconv");
+        oconv.arg("-f").arg(&rad);
+        let oconv_seconds = run_to_file(oconv, None, &oct, "oconv")?;
+        let (rays, grid_rays) = (work.join("rays.f32"), work.join("grid-rays.f32"));
+        write_rays(scene, settings, 1, &rays)?;
+        write_rays(scene, settings, stride, &grid_rays)?;
+        Ok(Self {
+            bin,
+            work: work.to_owned(),
+            oct,
+            rays,
+            grid_rays,
+            size: (settings.width, settings.height),
+            stride,
+            oconv_seconds,
+        })
+    }
+
+    fn rtrace(&self, args: &[String], workers: usize, amb: Option<&Path>) -> Command {
+        rtrace_command(self.bin, &self.oct, args, workers, amb)
+    }
+
+    /// Seconds `rtrace` takes to load the octree and trace one ray.
+    pub fn load_seconds(&self) -> Result<f64, String> {
+        let one = self.work.join("one.f32");
+        let rays = std::fs::read(&self.rays).map_err(|e| e.to_string())?;
+        std::fs::write(&one, &rays[..24]).map_err(|e| e.to_string())?;
+        let cmd = self.rtrace(&["-ab".into(), "0".into()], 1, None);
+        run_to_file(cmd, Some(&one), &self.work.join("one.out"), "rtrace (load)")
+    }
+
+    /// Radiance's brute-force image on the grid: no cache (`-aa 0`), `rays` rays, 2 processes;
+    /// and its seconds.
+    pub fn reference(&self, rays: u32) -> Result<(Image, f64), String> {
+        let out = self.work.join("ref.f32");
+        let args = ["-aa", "0", "-ad", &rays.to_string(), "-as", "0"].map(str::to_owned);
+        let cmd = self.rtrace(&args, 2, None);
+        let seconds = run_to_file(cmd, Some(&self.grid_rays), &out, "rtrace (reference)")?;
+        Ok((read_floats(&out, self.size, self.stride)?, seconds))
+    }
+
+    /// A cached image of every pixel (`-ad rays -as 0 -aa accuracy -ar resolution`) by
+    /// `workers` processes sharing the fresh ambient file `NAME.amb`: the image, its seconds,
+    /// the records and bytes of the ambient file.
+    pub fn cached(
+        &self,
+        (accuracy, rays, resolution): (f32, u32, u32),
+        workers: usize,
+        name: &str,
+    ) -> Result<(Image, f64, usize, u64), String> {
+        let amb = self.work.join(format!("{name}.amb"));
+        std::fs::remove_file(&amb).ok();
+        let out = self.work.join(format!("{name}.f32"));
+        let args = [
+            "-ad",
+            &rays.to_string(),
+            "-as",
+            "0",
+            "-aa",
+            &accuracy.to_string(),
+            "-ar",
+            &resolution.to_string(),
+        ]
+        .map(str::to_owned);
+        let cmd = self.rtrace(&args, workers, Some(&amb));
+        let seconds = run_to_file(cmd, Some(&self.rays), &out, "rtrace")?;
+        let img = read_floats(&out, self.size, 1)?;
+        let bytes = std::fs::metadata(&amb).map_or(0, |m| m.len());
+        Ok((img, seconds, ambient_records(self.bin, &amb)?, bytes))
+    }
+}
+
+/// One run of Radiance's own multi-process sharing: `rtrace -n P` processes sharing one ambient
+/// file (Radiance's answer to distributing the cache, over NFS and file locks on a cluster).
+#[derive(Clone, Debug, PartialEq)]
+pub struct SharedAmbientRun {
+    /// `rtrace` processes.
+    pub processes: usize,
+    /// Wall-clock seconds of the `rtrace` run.
+    pub seconds: f64,
+    /// Records in the ambient file at the end.
+    pub records: usize,
+    /// Bytes of the ambient file at the end (every record written once, read by the others).
+    pub ambient_bytes: u64,
+    /// Error against Radiance's brute-force image (`-aa 0`, 4x the rays) on the grid.
+    pub error: ImageError,
+}
+
+/// Radiance's side of `wfic reproduce distributed`: the scene exported as [`compare_scene`]
+/// does, one brute-force reference (`-aa 0 -ad 4N`, at one pixel in `stride` x `stride`, 2
+/// processes), and for each count in `processes` one cached run (`-ab 1 -ad N -aa a -ar res`)
+/// with that many `rtrace` processes sharing a fresh ambient file, each measured against the
+/// reference over the non-emitter pixels of the grid. Returns the runs and the reference's
+/// seconds. Work files go to `work`.
+///
+/// # Errors
+/// A Radiance tool that fails, or a file that cannot be written or read.
+pub fn shared_ambient(
+    bin: &RadianceBin,
+    scene: &Scene,
+    settings: &RenderSettings,
+    resolution: u32,
+    stride: u32,
+    processes: &[usize],
+    work: &Path,
+) -> Result<(Vec<SharedAmbientRun>, f64), String> {
+    let (n, a) = (settings.rays_per_record, settings.accuracy);
+    let mask = surface_mask(scene, settings, stride);
+    let rtrace = Rtrace::prepare(bin, scene, settings, stride, work)?;
+    let (reference, ref_seconds) = rtrace.reference(4 * n)?;
+    let mut runs = Vec::new();
+    for &p in processes {
+        let (img, seconds, records, ambient_bytes) =
+            rtrace.cached((a, n, resolution), p, &format!("shared-{p}"))?;
+        runs.push(SharedAmbientRun {
+            processes: p,
+            seconds,
+            records,
+            ambient_bytes,
+            error: image_error(&img, &reference, &mask),
+        });
+    }
+    Ok((runs, ref_seconds))
+}
