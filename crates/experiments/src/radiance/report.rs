@@ -347,7 +347,7 @@ fn light_markdown(results: &[SceneComparison]) -> String {
             r.runs.iter().filter(move |x| {
                 x.role == Role::LightSamples
                     && x.workers == workers
-                    && samples.is_none_or(|l| x.light_samples == l)
+                    && samples.map_or(true, |l| x.light_samples == l)
             })
         };
         let mut first = true;

@@ -29,15 +29,13 @@
 //! same seed and light samples, so the error is what the cache interpolates and what it kept):
 //! relative RMSE of luminance over the pixels that see a non-emitting surface.
 
-use crate::harness::measure::repeat;
+mod report;
+
 use crate::harness::metrics::{image_error, surface_mask};
 use crate::harness::stats::{self, median_index, std_dev, Middle};
-use crate::harness::table::{pct, star, Table};
-use crate::harness::{Check, Machine, Output, Provenance, Verdict};
-use crate::plot::{Figure, Line, Panel};
+use crate::harness::table::star;
+use crate::harness::{Check, Machine, Verdict};
 use std::collections::HashMap;
-use std::fmt::Write as _;
-use std::path::Path;
 use wfic::cache::{CacheConfig, CacheJob, IrradianceCache, Scheme};
 use wfic::ic::Selection;
 use wfic_render::film::Image;
@@ -369,6 +367,71 @@ impl CacheJob for Animate<'_> {
     }
 }
 
+impl Frames<'_> {
+    /// The removal mode's frames of `scheme` at `tolerance`, on one new cache.
+    fn removal(&self, scheme: Scheme, tolerance: f32, progress: &mut dyn FnMut(&str)) -> Vec<Row> {
+        let n = self.scenes.len();
+        self.render((scheme, Mode::Removal, tolerance), 0..n, &[], progress)
+            .0
+    }
+
+    /// The removal mode's further passes, the schemes interleaved so that a slow spell of the
+    /// machine falls on all of them: only their times are kept, each removal row of `rows`
+    /// taking the median of its frame's passes.
+    fn more_passes(
+        &self,
+        config: &DynamicConfig,
+        rows: &mut [Row],
+        progress: &mut dyn FnMut(&str),
+    ) {
+        let mut passes: Vec<Row> = rows
+            .iter()
+            .filter(|r| r.mode == Mode::Removal)
+            .cloned()
+            .collect();
+        for _ in 1..config.passes {
+            for &scheme in &config.schemes {
+                passes.extend(self.removal(scheme, config.settings.accuracy, progress));
+            }
+        }
+        let mut times: HashMap<(Scheme, usize), Vec<f64>> = HashMap::new();
+        for r in passes {
+            times
+                .entry((r.scheme, r.frame))
+                .or_default()
+                .push(r.seconds);
+        }
+        for r in rows.iter_mut().filter(|r| r.mode == Mode::Removal) {
+            r.take_median(&times[&(r.scheme, r.frame)]);
+        }
+    }
+
+    /// The tolerance sweep with `scheme`: each tolerance's passes back to back, the first
+    /// pass's frames with their times the median of the passes.
+    fn sweep(
+        &self,
+        config: &DynamicConfig,
+        scheme: Scheme,
+        progress: &mut dyn FnMut(&str),
+    ) -> Vec<(f32, Vec<Row>)> {
+        let mut sweep = Vec::with_capacity(config.sweep.len());
+        for &k in &config.sweep {
+            let tolerance = k * config.settings.accuracy;
+            let mut runs: Vec<Vec<Row>> = (0..config.passes)
+                .map(|_| self.removal(scheme, tolerance, progress))
+                .collect();
+            let mut first = runs.remove(0);
+            for r in &mut first {
+                let mut t = vec![r.seconds];
+                t.extend(runs.iter().map(|run| run[r.frame].seconds));
+                r.take_median(&t);
+            }
+            sweep.push((tolerance, first));
+        }
+        sweep
+    }
+}
+
 /// The margin within which the block, seen face on, fills more than the cache's accuracy of a
 /// point's view: `sqrt(A / (pi a))` for the largest face of its bounds.
 fn near_margin(accuracy: f32) -> f32 {
@@ -453,7 +516,7 @@ pub fn run(
             // One cache for the whole animation, or (fresh) a new one for every frame.
             let spans: Vec<std::ops::Range<usize>> = match mode {
                 Mode::Fresh => (0..n).map(|i| i..i + 1).collect(),
-                _ => vec![0..n],
+                _ => std::iter::once(0..n).collect(),
             };
             let mut kept = Vec::new();
             for span in spans {
@@ -468,53 +531,8 @@ pub fn run(
             }
         }
     }
-    let mut removal = |scheme: Scheme, tolerance: f32| {
-        frames
-            .render(
-                (scheme, Mode::Removal, tolerance),
-                0..n,
-                &[],
-                &mut *progress,
-            )
-            .0
-    };
-    // The removal mode's further passes, the schemes interleaved so that a slow spell of the
-    // machine falls on all of them: only their times are kept.
-    let mut times: HashMap<(Scheme, usize), Vec<f64>> = HashMap::new();
-    let mut passes: Vec<Row> = rows
-        .iter()
-        .filter(|r| r.mode == Mode::Removal)
-        .cloned()
-        .collect();
-    for _ in 1..config.passes {
-        for &scheme in &config.schemes {
-            passes.extend(removal(scheme, accuracy));
-        }
-    }
-    for r in passes {
-        times
-            .entry((r.scheme, r.frame))
-            .or_default()
-            .push(r.seconds);
-    }
-    for r in rows.iter_mut().filter(|r| r.mode == Mode::Removal) {
-        r.take_median(&times[&(r.scheme, r.frame)]);
-    }
-    // The tolerance sweep: each tolerance's passes back to back, frame times their median.
-    let mut sweep = Vec::with_capacity(config.sweep.len());
-    for &k in &config.sweep {
-        let tolerance = k * accuracy;
-        let mut runs: Vec<Vec<Row>> = repeat(config.passes, |_| {
-            Ok::<_, String>(removal(strip_scheme, tolerance))
-        })?;
-        let mut first = runs.remove(0);
-        for r in &mut first {
-            let mut t = vec![r.seconds];
-            t.extend(runs.iter().map(|run| run[r.frame].seconds));
-            r.take_median(&t);
-        }
-        sweep.push((tolerance, first));
-    }
+    frames.more_passes(config, &mut rows, progress);
+    let sweep = frames.sweep(config, strip_scheme, progress);
     let strip = keep
         .iter()
         .zip(with_removal.into_iter().zip(stale))
@@ -537,32 +555,6 @@ fn mean_after_first<'a>(rows: impl IntoIterator<Item = &'a Row>, f: impl Fn(&Row
     stats::mean(rows.into_iter().filter(|r| r.frame > 0).map(f))
 }
 
-/// A summary of frames after the first: the table rows of both Markdown tables.
-struct Summary<'a> {
-    label: String,
-    mode: Mode,
-    rows: Vec<&'a Row>,
-    fresh_seconds: f64,
-}
-
-impl Summary<'_> {
-    fn mean(&self, f: impl Fn(&Row) -> f64) -> f64 {
-        mean_after_first(self.rows.iter().copied(), f)
-    }
-
-    fn last(&self) -> Option<&Row> {
-        self.rows.iter().copied().rfind(|r| r.frame > 0)
-    }
-
-    fn max_error(&self) -> f64 {
-        self.rows
-            .iter()
-            .filter(|r| r.frame > 0)
-            .map(|r| r.error)
-            .fold(0.0, f64::max)
-    }
-}
-
 impl Dynamic {
     fn rows_of(&self, scheme: Scheme, mode: Mode) -> impl Iterator<Item = &Row> {
         self.rows
@@ -576,59 +568,6 @@ impl Dynamic {
 
     fn star(&self, threads: usize) -> &'static str {
         star(self.machine.oversubscribed(threads))
-    }
-
-    /// `dynamic.csv`: one row per scheme, mode and frame.
-    pub fn csv(&self) -> String {
-        let s = &self.config.settings;
-        let m = &self.machine;
-        Table::new()
-            .csv("scene", |_: &Row| self.config.scene.clone())
-            .csv("scheme", |r| r.scheme.name().to_owned())
-            .csv("mode", |r| r.mode.name().to_owned())
-            .csv("threads", |r| r.threads.to_string())
-            .csv("cores", |_| m.cores.to_string())
-            .csv("oversubscribed", |r| {
-                m.oversubscribed(r.threads).to_string()
-            })
-            .csv("width", |_| s.width.to_string())
-            .csv("height", |_| s.height.to_string())
-            .csv("frame", |r| r.frame.to_string())
-            .csv("seconds", |r| format!("{:.6}", r.seconds))
-            .csv("seconds_min", |r| format!("{:.6}", r.seconds_range.0))
-            .csv("seconds_max", |r| format!("{:.6}", r.seconds_range.1))
-            .csv("passes", |r| r.passes.to_string())
-            .csv("ic_samples", |r| r.ic_samples.to_string())
-            .csv("removed", |r| r.removed.to_string())
-            .csv("records", |r| r.records.to_string())
-            .csv("nodes", |r| r.nodes.to_string())
-            .csv("bytes_estimate", |r| r.bytes().to_string())
-            .csv("rel_rmse", |r| format!("{:.6}", r.error))
-            .csv_text(&self.rows)
-    }
-
-    /// `dynamic-sweep.csv`: the removal mode's frames at every tolerance (the main run's, `a`,
-    /// among them).
-    pub fn sweep_csv(&self) -> String {
-        let rows: Vec<(f32, &Row)> = self
-            .sweep_rows()
-            .into_iter()
-            .flat_map(|(t, rows)| rows.into_iter().map(move |r| (t, r)))
-            .collect();
-        Table::new()
-            .csv("scheme", |(_, r): &(f32, &Row)| r.scheme.name().to_owned())
-            .csv("threads", |(_, r)| r.threads.to_string())
-            .csv("tolerance", |(t, _)| t.to_string())
-            .csv("frame", |(_, r)| r.frame.to_string())
-            .csv("seconds", |(_, r)| format!("{:.6}", r.seconds))
-            .csv("seconds_min", |(_, r)| format!("{:.6}", r.seconds_range.0))
-            .csv("seconds_max", |(_, r)| format!("{:.6}", r.seconds_range.1))
-            .csv("passes", |(_, r)| r.passes.to_string())
-            .csv("ic_samples", |(_, r)| r.ic_samples.to_string())
-            .csv("removed", |(_, r)| r.removed.to_string())
-            .csv("records", |(_, r)| r.records.to_string())
-            .csv("rel_rmse", |(_, r)| format!("{:.6}", r.error))
-            .csv_text(&rows)
     }
 
     /// The main run's removal frames of the sweep's scheme (tolerance `a`) and the sweep's, in
@@ -731,314 +670,6 @@ impl Dynamic {
             ));
         }
         out
-    }
-
-    /// What was rendered and how the error is measured: the page's first paragraphs.
-    fn intro(&self) -> String {
-        let s = &self.config.settings;
-        let n = self.config.frames;
-        format!(
-            "`{}`: the Cornell box's short block slides {:.0} mm along the floor over {n} frames \
-             ({:.1} mm a frame); the camera stays. {}x{}, {} primary rays a pixel, {} rays a \
-             record, {} light samples, a = {}. Error: relative RMSE of luminance against each \
-             frame's brute-force image (scheme `none`, same seed and light samples) over the \
-             pixels that see a non-emitting surface; the references took {:.1} s.\n\n\
-             Worker 0, at the start of each frame after the first, removes while the others \
-             shade. `removal`: the records whose light the block changed by more than a since \
-             they were computed (`Selection::moving`): a record computed n frames ago goes when \
-             its influence sphere, grown by sqrt(min(d, s) s / (pi a)), meets the box the block \
-             swept since, d = n x the step, s the edge of the block's largest face (the margin \
-             grows to {:.0} mm). `removal-near`: every frame, the records whose influence sphere, \
-             grown by {:.0} mm (within which that face fills more than a of a point's view: \
-             sqrt(A / (pi a))), meets the block's last and new place. `removal-local`: the same \
-             grown by nothing. LW's global records go at its merge, after the frame. The removal \
-             mode ran {} times per scheme, the schemes interleaved: its seconds are each frame's \
-             median (the CSV has the range).\n\n",
-            self.config.scene,
-            CORNELL_SLIDE.length() * 1000.0,
-            CORNELL_SLIDE.length() * 1000.0 / (n - 1) as f32,
-            s.width,
-            s.height,
-            s.pixel_samples,
-            s.rays_per_record,
-            s.light_samples,
-            s.accuracy,
-            self.reference_seconds,
-            self.margin * 1000.0,
-            self.margin * 1000.0,
-            self.config.passes
-        )
-    }
-
-    /// The means over frames after the first, per scheme and mode.
-    fn modes_markdown(&self) -> String {
-        let mut summaries = Vec::new();
-        for &scheme in &self.config.schemes {
-            let fresh_seconds = self.mean(scheme, Mode::Fresh, |r| r.seconds);
-            for mode in Mode::ALL {
-                let rows: Vec<&Row> = self.rows_of(scheme, mode).collect();
-                if rows.iter().any(|r| r.frame > 0) {
-                    let label = scheme.heading().to_owned();
-                    summaries.push(Summary {
-                        label,
-                        mode,
-                        rows,
-                        fresh_seconds,
-                    });
-                }
-            }
-        }
-        let last = |s: &Summary| s.last().cloned().expect("a frame after the first");
-        let t = Table::new()
-            .md("scheme", |s: &Summary| s.label.clone())
-            .left()
-            .md("threads", |s| {
-                let t = last(s).threads;
-                format!("{t}{}", self.star(t))
-            })
-            .md("mode", |s| s.mode.name().to_owned())
-            .left()
-            .md("seconds", |s| format!("{:.3}", s.mean(|r| r.seconds)))
-            .md("IC samples", |s| {
-                format!("{:.0}", s.mean(|r| r.ic_samples as f64))
-            })
-            .md("removed", |s| {
-                format!("{:.0}", s.mean(|r| r.removed as f64))
-            })
-            .md("records (last)", |s| last(s).records.to_string())
-            .md("nodes (last)", |s| last(s).nodes.to_string())
-            .md("memory est. (last)", |s| {
-                format!("{:.0} KiB", last(s).bytes() as f64 / 1024.0)
-            })
-            .md("error mean", |s| pct(s.mean(|r| r.error)))
-            .md("error max", |s| pct(s.max_error()))
-            .md("time vs fresh", |s| {
-                format!("{:.2}x", s.fresh_seconds / s.mean(|r| r.seconds))
-            });
-        format!(
-            "## Frames after the first (means over frames 1..{})\n\n{}",
-            self.config.frames - 1,
-            t.markdown(&summaries)
-        )
-    }
-
-    /// The removal mode at each tolerance of the sweep.
-    fn sweep_markdown(&self) -> String {
-        if self.sweep.is_empty() {
-            return String::new();
-        }
-        let scheme = self.strip_scheme;
-        let fresh_seconds = self.mean(scheme, Mode::Fresh, |r| r.seconds);
-        let fresh_error = self.mean(scheme, Mode::Fresh, |r| r.error);
-        let a = self.config.settings.accuracy;
-        let summaries: Vec<Summary> = self
-            .sweep_rows()
-            .into_iter()
-            .map(|(tolerance, rows)| Summary {
-                label: format!("{tolerance:.3} ({}a)", tolerance / a),
-                mode: Mode::Removal,
-                rows,
-                fresh_seconds,
-            })
-            .collect();
-        let t = Table::new()
-            .md("tolerance", |s: &Summary| s.label.clone())
-            .md("seconds", |s| format!("{:.3}", s.mean(|r| r.seconds)))
-            .md("IC samples", |s| {
-                format!("{:.0}", s.mean(|r| r.ic_samples as f64))
-            })
-            .md("removed", |s| {
-                format!("{:.0}", s.mean(|r| r.removed as f64))
-            })
-            .md("records (last)", |s| {
-                s.last().map_or(0, |r| r.records).to_string()
-            })
-            .md("error mean", |s| pct(s.mean(|r| r.error)))
-            .md("error max", |s| pct(s.max_error()))
-            .md("time vs fresh", |s| {
-                format!("{:.2}x", s.fresh_seconds / s.mean(|r| r.seconds))
-            });
-        let threads = self.config.threads_of(scheme);
-        format!(
-            "\n## Removal's tolerance ({}, {threads} threads{}; means over frames 1..{})\n\n\
-             The tolerance is the change of light, as a fraction, that a record may have \
-             taken from the block's motion before it goes. A fresh cache: {fresh_seconds:.3} s a \
-             frame, error {}.\n\n{}",
-            scheme.heading(),
-            self.star(threads),
-            self.config.frames - 1,
-            pct(fresh_error),
-            t.markdown(&summaries)
-        )
-    }
-
-    /// `dynamic.md`'s body.
-    pub fn markdown(&self) -> String {
-        let mut md = self.intro();
-        md.push_str(&self.modes_markdown());
-        md.push_str(&self.sweep_markdown());
-        let _ = write!(
-            md,
-            "\n## Checks\n\n{}\n## Every frame with removal: seconds / error\n\n",
-            Check::markdown(&self.checks(), false)
-        );
-        let mut t = Table::new().md("frame", |i: &usize| i.to_string());
-        for &scheme in &self.config.schemes {
-            t = t.md(scheme.heading(), move |&i| {
-                self.rows_of(scheme, Mode::Removal)
-                    .find(|r| r.frame == i)
-                    .map_or(String::new(), |r| {
-                        format!("{:.3} s / {}", r.seconds, pct(r.error))
-                    })
-            });
-        }
-        let frames: Vec<usize> = (0..self.config.frames).collect();
-        let kept: Vec<String> = self.strip.iter().map(|(i, ..)| i.to_string()).collect();
-        let _ = write!(
-            md,
-            "{}\n`dynamic.png`: time and error per frame. `dynamic-strip.png`: frames {} of the \
-             strip's scheme with removal (top row), stale (middle) and the reference (bottom).\n\n\
-             `*`: oversubscribed (more threads than the {} cores).\n",
-            t.markdown(&frames),
-            kept.join(", "),
-            self.machine.cores
-        );
-        md
-    }
-
-    /// Time and error per frame, one line per scheme and mode.
-    pub fn figure(&self) -> Figure {
-        let n = self.config.frames;
-        let dash =
-            |c: wfic::cache::Rgb8, k: u16| c.map(|v| ((u16::from(v) + k * 255) / (k + 1)) as u8);
-        let (mut time, mut error, mut legend) = (Vec::new(), Vec::new(), Vec::new());
-        for &scheme in &self.config.schemes {
-            for mode in Mode::ALL {
-                let colour = match mode {
-                    Mode::Removal => scheme.colour(),
-                    Mode::RemovalNear | Mode::RemovalLocal | Mode::Fresh => {
-                        dash(scheme.colour(), 1)
-                    }
-                    Mode::Stale => dash(scheme.colour(), 2),
-                };
-                if matches!(mode, Mode::RemovalNear | Mode::RemovalLocal) {
-                    // Three lines a scheme are enough to read; its numbers are in the tables.
-                    continue;
-                }
-                let label = format!(
-                    "{} {}{} {}",
-                    scheme.heading(),
-                    self.config.threads_of(scheme),
-                    self.star(self.config.threads_of(scheme)),
-                    mode.name().to_uppercase()
-                );
-                legend.push((label.clone(), colour));
-                let rows: Vec<&Row> = self.rows_of(scheme, mode).collect();
-                time.push(Line {
-                    label: label.clone(),
-                    colour,
-                    points: rows.iter().map(|r| (r.frame as f64, r.seconds)).collect(),
-                    markers: mode == Mode::Removal,
-                });
-                error.push(Line {
-                    label,
-                    colour,
-                    points: rows
-                        .iter()
-                        .map(|r| (r.frame as f64, 100.0 * r.error))
-                        .collect(),
-                    markers: mode == Mode::Removal,
-                });
-            }
-        }
-        let base = Panel {
-            x_range: (0.0, (n - 1) as f64),
-            x_label: "FRAME".into(),
-            legend,
-            ..Panel::default()
-        };
-        let threads = self.config.thread_counts();
-        Figure {
-            header: vec![
-                format!(
-                    "A SCENE THAT MOVES: {} ({} FRAMES), {}X{}; REMOVAL (DARK), FRESH (MID), STALE (LIGHT)",
-                    self.config.scene.to_uppercase(),
-                    n,
-                    self.config.settings.width,
-                    self.config.settings.height
-                ),
-                self.machine.banner(&threads),
-            ],
-            panels: vec![
-                Panel {
-                    title: "TIME PER FRAME".into(),
-                    left_label: "TIME (S)".into(),
-                    lines: time,
-                    ..base.clone()
-                },
-                Panel {
-                    title: "ERROR AGAINST THE FRAME'S BRUTE-FORCE IMAGE".into(),
-                    left_label: "REL. RMSE (%)".into(),
-                    lines: error,
-                    ..base
-                },
-            ],
-            columns: 1,
-            panel_size: (1200, 480),
-        }
-    }
-
-    /// The strip: one column per kept frame; rows removal, stale, reference, all at the
-    /// reference's exposure.
-    pub fn strip_image(&self) -> Option<image::RgbImage> {
-        let (_, first, ..) = self.strip.first()?;
-        let (w, h) = (first.width(), first.height());
-        let gap = 4;
-        let cols = self.strip.len() as u32;
-        let mut out = image::RgbImage::from_pixel(
-            cols * (w + gap) - gap,
-            3 * (h + gap) - gap,
-            image::Rgb([255, 255, 255]),
-        );
-        for (c, (_, a, stale, reference)) in self.strip.iter().enumerate() {
-            let exposure = reference.auto_exposure();
-            for (r, img) in [a, stale, reference].into_iter().enumerate() {
-                let rgb = img.to_srgb8(exposure);
-                for y in 0..h {
-                    for x in 0..w {
-                        let k = 3 * (y * w + x) as usize;
-                        out.put_pixel(
-                            c as u32 * (w + gap) + x,
-                            r as u32 * (h + gap) + y,
-                            image::Rgb([rgb[k], rgb[k + 1], rgb[k + 2]]),
-                        );
-                    }
-                }
-            }
-        }
-        Some(out)
-    }
-
-    /// Writes `dynamic.csv`, `dynamic-sweep.csv`, `dynamic.md`, `dynamic.png`, `dynamic.svg` and
-    /// Writes `dynamic.csv`, `dynamic-sweep.csv`, `dynamic.md`, `dynamic.png`, `dynamic.svg` and
-    /// `dynamic-strip.png`, each with the provenance of `command`.
-    pub fn write(&self, dir: &Path, command: &str) -> Result<(), String> {
-        let provenance = Provenance::new(command, &self.machine, &self.config.thread_counts(), &[]);
-        let out = Output::new(dir, &provenance)?;
-        out.csv("dynamic.csv", &self.csv())?;
-        let title = "A scene that moves: removal against a fresh and a stale cache";
-        out.markdown("dynamic.md", title, &self.markdown())?;
-        out.csv("dynamic-sweep.csv", &self.sweep_csv())?;
-        let figure = self.figure();
-        figure.write_png(&out.path("dynamic.png"))?;
-        figure.write_svg(&out.path("dynamic.svg"))?;
-        if let Some(strip) = self.strip_image() {
-            let path = out.path("dynamic-strip.png");
-            strip
-                .save(&path)
-                .map_err(|e| format!("{}: {e}", path.display()))?;
-        }
-        Ok(())
     }
 }
 

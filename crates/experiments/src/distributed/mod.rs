@@ -11,17 +11,18 @@
 //! orbit animation and Radiance. Analysis: records, duplicates and bytes against one rank, the
 //! exchange-cost model ([`Distributed::calibration`]) and the checks.
 
+mod report;
+
 use crate::harness::measure::{repeat, time_command};
 use crate::harness::metrics::{image_error, surface_mask, ImageError};
 use crate::harness::stats::{self, median_index, Middle};
-use crate::harness::table::{pct, Table};
-use crate::harness::{Check, Machine, Output, Provenance, Verdict};
-use crate::plot::{Figure, Line, Panel};
+use crate::harness::table::pct;
+use crate::harness::{Check, Machine, Verdict};
 use crate::radiance::{self, RadianceBin, SharedAmbientRun};
-use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use wfic_render::film::Image;
+use wfic_render::stats::DistributedStats;
 use wfic_render::{render_reference_grid, scenes, RenderSettings, Scene};
 
 /// The scene of the experiment.
@@ -207,116 +208,11 @@ pub struct Distributed {
     pub isolated: bool,
 }
 
-/// The statistics `wfic render --distributed --stats` writes, as this experiment reads them:
-/// the one place that maps the JSON document to Rust values.
-pub mod rank_stats {
-    use serde_json::Value;
-
-    /// One rank's figures.
-    #[derive(Clone, Debug, Default, PartialEq)]
-    pub struct Rank {
-        /// Records it computed.
-        pub records_computed: u64,
-        /// Bytes it sent.
-        pub bytes_sent: u64,
-        /// Records it received.
-        pub records_received: u64,
-        /// Exchange rounds.
-        pub rounds: u64,
-        /// Seconds in the rounds' collectives.
-        pub collective_seconds: f64,
-        /// Seconds inserting received records.
-        pub insert_seconds: f64,
-    }
-
-    /// One frame of an animation: rank 0's seconds, and the frame's records, duplicates and
-    /// ranks.
-    #[derive(Clone, Debug, Default, PartialEq)]
-    pub struct Frame {
-        /// Rank 0's seconds.
-        pub seconds: f64,
-        /// Records computed in the frame, all ranks.
-        pub records_computed: u64,
-        /// Duplicates in the frame.
-        pub duplicates: u64,
-        /// Every rank's bytes sent in the frame.
-        pub bytes_sent: Vec<u64>,
-    }
-
-    /// A job's statistics: the frame's (the last frame's for an animation) seconds,
-    /// duplicates and ranks, and an animation's frames.
-    #[derive(Clone, Debug, Default, PartialEq)]
-    pub struct JobStats {
-        /// Rank 0's seconds.
-        pub seconds: f64,
-        /// Records computed where another rank's record is also valid.
-        pub duplicates: u64,
-        /// Every rank's figures.
-        pub ranks: Vec<Rank>,
-        /// An animation's frames (empty for one frame).
-        pub frames: Vec<Frame>,
-    }
-
-    fn field(v: &Value, key: &str) -> Result<u64, String> {
-        v[key]
-            .as_u64()
-            .ok_or_else(|| format!("rank statistics without `{key}`: {v}"))
-    }
-
-    fn seconds(v: &Value, key: &str) -> Result<f64, String> {
-        v[key]
-            .as_f64()
-            .ok_or_else(|| format!("rank statistics without `{key}`: {v}"))
-    }
-
-    fn rank(r: &Value) -> Result<Rank, String> {
-        Ok(Rank {
-            records_computed: field(r, "records_computed")?,
-            bytes_sent: field(r, "bytes_sent")?,
-            records_received: field(r, "records_received")?,
-            rounds: field(r, "rounds")?,
-            collective_seconds: seconds(r, "collective_seconds")?,
-            insert_seconds: seconds(r, "insert_seconds")?,
-        })
-    }
-
-    fn frame(e: &Value) -> Result<Frame, String> {
-        let ranks = e["ranks"]
-            .as_array()
-            .ok_or_else(|| format!("a frame without ranks: {e}"))?;
-        Ok(Frame {
-            seconds: seconds(e, "seconds")?,
-            records_computed: field(e, "records_computed")?,
-            duplicates: field(e, "duplicates")?,
-            bytes_sent: ranks
-                .iter()
-                .map(|r| field(r, "bytes_sent"))
-                .collect::<Result<_, _>>()?,
-        })
-    }
-
-    /// Reads the statistics document `text`; an animation's when `frames`.
-    pub fn parse(text: &str, frames: bool) -> Result<JobStats, String> {
-        let json: Value = serde_json::from_str(text).map_err(|e| e.to_string())?;
-        if frames {
-            let entries = json["frames"]
-                .as_array()
-                .ok_or_else(|| format!("animation statistics without frames: {json}"))?;
-            return Ok(JobStats {
-                frames: entries.iter().map(frame).collect::<Result<_, _>>()?,
-                ..JobStats::default()
-            });
-        }
-        let ranks = json["ranks"]
-            .as_array()
-            .ok_or_else(|| format!("statistics without ranks: {json}"))?;
-        Ok(JobStats {
-            seconds: seconds(&json, "seconds")?,
-            duplicates: field(&json, "duplicates")?,
-            ranks: ranks.iter().map(rank).collect::<Result<_, _>>()?,
-            frames: Vec::new(),
-        })
-    }
+/// Reads the statistics `wfic render --distributed --stats` wrote to `path`: the one place the
+/// experiment maps the renderer's JSON document to Rust values.
+fn read_stats(path: &Path) -> Result<DistributedStats, String> {
+    let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    DistributedStats::from_json(&text).map_err(|e| format!("{}: {e}", path.display()))
 }
 
 /// How `mpirun` is started.
@@ -424,7 +320,7 @@ impl Launcher {
         config: &DistributedConfig,
         frames: usize,
         dir: &Path,
-    ) -> Result<(Image, rank_stats::JobStats, f64), String> {
+    ) -> Result<(Image, DistributedStats, f64), String> {
         let what = format!("mpirun -np {} ({})", layout.ranks, layout.label);
         let (_, wall) = time_command(&mut self.command(layout, config, frames, dir), &what)?;
         // The last frame's image (`job-NNN.pfm` when there are several).
@@ -434,12 +330,7 @@ impl Launcher {
             dir.join("job.pfm")
         };
         let image = Image::read_pfm(&pfm).map_err(|e| format!("{}: {e}", pfm.display()))?;
-        let json = dir.join("job.json");
-        let text =
-            std::fs::read_to_string(&json).map_err(|e| format!("{}: {e}", json.display()))?;
-        let stats =
-            rank_stats::parse(&text, frames > 1).map_err(|e| format!("{}: {e}", json.display()))?;
-        Ok((image, stats, wall))
+        Ok((image, read_stats(&dir.join("job.json"))?, wall))
     }
 }
 
@@ -462,8 +353,10 @@ impl Bench<'_> {
             progress(&format!("{} (run {} of {runs})", layout.label, k + 1));
             self.launcher.run(layout, self.config, 1, self.work)
         })?;
-        let times: Vec<f64> = runs.iter().map(|(_, s, _)| s.seconds).collect();
+        let frame = |s: &DistributedStats| s.frames.frames().first().cloned().unwrap_or_default();
+        let times: Vec<f64> = runs.iter().map(|(_, s, _)| frame(s).seconds).collect();
         let (image, stats, wall) = &runs[median_index(&times, Middle::Lower)];
+        let stats = frame(stats);
         let ranks = &stats.ranks;
         Ok(Job {
             layout: *layout,
@@ -508,12 +401,13 @@ impl Bench<'_> {
             let (image, stats, _) = self.launcher.run(layout, config, n, self.work)?;
             let frames = stats
                 .frames
+                .frames()
                 .iter()
                 .map(|f| AnimFrame {
                     seconds: f.seconds,
                     records: f.records_computed,
                     duplicates: f.duplicates,
-                    bytes: f.bytes_sent.iter().sum(),
+                    bytes: f.ranks.iter().map(|r| r.bytes_sent).sum(),
                 })
                 .collect();
             animations.push(Animation {
@@ -611,69 +505,6 @@ pub fn run(
 
 pub use crate::harness::stats::fit_line;
 
-fn kib(bytes: u64) -> String {
-    format!("{:.1} KiB", bytes as f64 / 1024.0)
-}
-
-/// One line of `distributed.csv`: a job, an animation's frame or a Radiance run (the figures a
-/// kind has not are blank).
-struct CsvLine<'a> {
-    group: String,
-    layout: String,
-    ranks: usize,
-    threads: usize,
-    share: bool,
-    batch: Option<(usize, u64)>,
-    seconds: f64,
-    job: Option<&'a Job>,
-    records: u64,
-    duplicates: Option<u64>,
-    bytes: u64,
-    error: Option<ImageError>,
-}
-
-impl<'a> CsvLine<'a> {
-    /// A line of `layout`, its figures blank.
-    fn new(group: String, l: &Layout) -> Self {
-        Self {
-            group,
-            layout: l.label.replace(',', ";"),
-            ranks: l.ranks,
-            threads: l.threads,
-            share: l.share,
-            batch: Some((l.batch_records, l.batch_ms)),
-            seconds: 0.0,
-            job: None,
-            records: 0,
-            duplicates: None,
-            bytes: 0,
-            error: None,
-        }
-    }
-
-    fn job(group: &str, j: &'a Job) -> Self {
-        Self {
-            seconds: j.seconds,
-            job: Some(j),
-            records: j.total(),
-            duplicates: Some(j.duplicates),
-            bytes: j.bytes,
-            error: Some(j.error),
-            ..Self::new(group.to_owned(), &j.layout)
-        }
-    }
-
-    /// A blank cell, or `f` of the job.
-    fn of_job(&self, f: impl Fn(&Job) -> String) -> String {
-        self.job.map_or(String::new(), f)
-    }
-}
-
-/// `{:.*}` of `x`, or blank.
-fn opt(x: Option<f64>, digits: usize) -> String {
-    x.map_or(String::new(), |x| format!("{x:.digits$}"))
-}
-
 impl Distributed {
     /// The job whose layout label is `label`.
     fn job(&self, label: &str) -> Option<&Job> {
@@ -765,361 +596,6 @@ impl Distributed {
         }
         out
     }
-
-    /// The page's opening: how the jobs ran and what the columns mean.
-    fn intro(&self) -> String {
-        let s = &self.config.settings;
-        format!(
-            "Jobs ran under `mpirun` {}, OpenMPI over shared memory (`btl self,vader`);              oversubscribed layouts (more processes than cores) are reported, not scaling.\n\n\
-             `{}`, {}x{}, {} primary ray a pixel, {} rays a record, {} light samples, a = {}. \
-             Each rank renders the tiles handed to it on its own WF cache; shared ranks send \
-             their new records to the others every {} records or {} ms (a variable-count \
-             allgather). Error: relative RMSE of luminance against wfic's brute-force image \
-             (`--scheme none`, {} rays a record, same seed and light samples) over the pixels of \
-             a 1-in-{}x{} grid that see a non-emitter (reference: {:.1} s). Seconds: rank 0's \
-             frame (agreement to assembled image), the median of {} run(s); `mpirun` start-up \
-             is in the wall column only. Duplicates: records computed where a record another \
-             rank computed is also valid.\n\n",
-            if self.isolated {
-                "in a loopback-only network namespace"
-            } else {
-                "in this machine's network namespace"
-            },
-            self.config.scene,
-            s.width,
-            s.height,
-            s.pixel_samples,
-            s.rays_per_record,
-            s.light_samples,
-            s.accuracy,
-            self.config.batch_records,
-            self.config.batch_ms,
-            4 * s.rays_per_record,
-            self.config.stride,
-            self.config.stride,
-            self.reference_seconds,
-            self.config.runs
-        )
-    }
-
-    /// The main layouts against one rank.
-    fn layouts_markdown(&self) -> String {
-        let one = self.job(ONE);
-        let against = |j: &Job| {
-            one.map_or((1.0, 1.0), |o| {
-                (j.seconds / o.seconds, j.total() as f64 / o.total() as f64)
-            })
-        };
-        let t = Table::new()
-            .md("layout", |j: &Job| j.layout.label.to_owned())
-            .left()
-            .md("seconds (range)", |j| {
-                format!("{:.3} ({:.3}-{:.3})", j.seconds, j.range.0, j.range.1)
-            })
-            .md("wall", |j| format!("{:.2}", j.wall))
-            .md("vs 1 x 2", |j| format!("{:.2}x", against(j).0))
-            .md("records", |j| j.total().to_string())
-            .md("per rank", |j| {
-                let per: Vec<String> = j.computed.iter().map(u64::to_string).collect();
-                per.join(" / ")
-            })
-            .left()
-            .md("vs 1 x 2", |j| {
-                format!("{:+.1}%", 100.0 * (against(j).1 - 1.0))
-            })
-            .md("duplicates", |j| j.duplicates.to_string())
-            .md("bytes sent", |j| kib(j.bytes))
-            .md("rounds", |j| j.rounds.to_string())
-            .md("collectives (max rank)", |j| {
-                format!("{:.3} s", j.collective_seconds)
-            })
-            .md("inserting (all ranks)", |j| {
-                format!("{:.3} s", j.insert_seconds)
-            })
-            .md("error", |j| pct(j.error.rel_rmse))
-            .md("mean rel. error", |j| pct(j.error.mean_rel));
-        format!("## The layouts\n\n{}", t.markdown(&self.jobs))
-    }
-
-    /// Radiance's processes sharing one ambient file, against wfic's ranks.
-    fn radiance_markdown(&self) -> String {
-        let Some((runs, ref_seconds)) = &self.radiance else {
-            return String::new();
-        };
-        let s = &self.config.settings;
-        let r1 = runs.iter().find(|r| r.processes == 1).map(|r| r.records);
-        let t = Table::new()
-            .md("processes", |r: &SharedAmbientRun| r.processes.to_string())
-            .md("seconds", |r| format!("{:.2}", r.seconds))
-            .md("records", |r| r.records.to_string())
-            .md("vs 1 process", |r| {
-                r1.map_or("-".to_owned(), |one| {
-                    format!(
-                        "{:+.1}%",
-                        100.0 * (r.records as f64 / one.max(1) as f64 - 1.0)
-                    )
-                })
-            })
-            .md("ambient file", |r| kib(r.ambient_bytes))
-            .md("error", |r| pct(r.error.rel_rmse))
-            .md("mean rel. error", |r| pct(r.error.mean_rel))
-            .md("wfic's time against it", |r| {
-                let versus = self.job(if r.processes == 1 { ONE } else { SHARED });
-                versus.map_or("-".to_owned(), |j| {
-                    let label = j.layout.label.trim_end_matches(", shared");
-                    format!("{:.3}x ({label})", j.seconds / r.seconds)
-                })
-            });
-        format!(
-            "\n## Radiance: `rtrace -n P` sharing one ambient file\n\n{}. `rtrace -ab 1 -ad \
-             {} -aa {} -ar {} -as 0 -dj 0 -af FILE -n P`, one ray a pixel, a fresh ambient \
-             file each run; error against Radiance's own brute force (`-aa 0 -ad {}`, {:.1} \
-             s) on the same grid. Radiance's processes share records through the file (each \
-             appends its new records under a lock and reads the others'), so its \"bytes\" \
-             are the file's size, written once and read by every other process.\n\n{}",
-            self.radiance_version,
-            s.rays_per_record,
-            s.accuracy,
-            self.config.radiance_resolution,
-            4 * s.rays_per_record,
-            ref_seconds,
-            t.markdown(runs)
-        )
-    }
-
-    /// The batch sweep and the orbit animation.
-    fn sweep_markdown(&self) -> String {
-        let t = Table::new()
-            .md("batch (records)", |j: &Job| {
-                j.layout.batch_records.to_string()
-            })
-            .md("seconds", |j| format!("{:.3}", j.seconds))
-            .md("records", |j| j.total().to_string())
-            .md("duplicates", |j| j.duplicates.to_string())
-            .md("rounds", |j| j.rounds.to_string())
-            .md("bytes sent", |j| kib(j.bytes))
-            .md("collectives (max rank)", |j| {
-                format!("{:.3} s", j.collective_seconds)
-            })
-            .md("error", |j| pct(j.error.rel_rmse));
-        let mut md = format!(
-            "\n## Batch size: duplicates against exchange cost (2 ranks x 1 thread, the timer \
-             off)\n\nA round starts when a rank's outbox holds the batch, or when a rank runs \
-             short of tiles (tiles are handed out at the rounds), or when a rank's workers are \
-             done.\n\n{}",
-            t.markdown(&self.sweep)
-        );
-        let Some(n) = self.animations.first().map(|a| a.frames.len()) else {
-            return md;
-        };
-        let later =
-            |a: &Animation, f: fn(&AnimFrame) -> f64| stats::mean(a.frames[1..].iter().map(f));
-        let t = Table::new()
-            .md("layout", |a: &Animation| a.layout.label.to_owned())
-            .left()
-            .md("first frame (s)", |a| format!("{:.3}", a.frames[0].seconds))
-            .md("later frames, mean (s)", |a| {
-                format!("{:.3}", later(a, |f| f.seconds))
-            })
-            .md("total (s)", |a| {
-                format!("{:.3}", a.frames.iter().map(|f| f.seconds).sum::<f64>())
-            })
-            .md("records, first", |a| a.frames[0].records.to_string())
-            .md("records, later (mean)", |a| {
-                format!("{:.0}", later(a, |f| f.records as f64))
-            })
-            .md("records, all", |a| {
-                a.frames.iter().map(|f| f.records).sum::<u64>().to_string()
-            })
-            .md("duplicates, all", |a| {
-                a.frames
-                    .iter()
-                    .map(|f| f.duplicates)
-                    .sum::<u64>()
-                    .to_string()
-            })
-            .md("bytes sent, all", |a| {
-                kib(a.frames.iter().map(|f| f.bytes).sum())
-            })
-            .md("last frame's error", |a| pct(a.last_error.rel_rmse));
-        let _ = write!(
-            md,
-            "\n## The orbit animation: {n} frames, the caches kept across frames\n\nThe \
-             scene's orbit camera, frame i at turn i / {n}; every rank keeps its cache (and \
-             the records the others sent) from frame to frame, as the paper's animation \
-             (§4.2) does in one process. Duplicates are counted within each frame. Error: \
-             the last frame against its brute-force image.\n\n{}",
-            t.markdown(&self.animations)
-        );
-        md
-    }
-
-    /// `distributed.md`'s body.
-    pub fn markdown(&self) -> String {
-        let (insert, wire) = self.calibration();
-        format!(
-            "{}{}{}{}\n## The exchange-cost model, calibrated here\n\nEvery rank receives every \
-             other rank's records: with R ranks and M records a frame, each rank inserts about M \
-             (R - 1) / R of them and the job moves about M (R - 1) records' bytes. Measured \
-             here: {:.2} us to insert a received record, {:.0} bytes a record on the wire.\n\n\
-             ## Checks\n\n{}",
-            self.intro(),
-            self.layouts_markdown(),
-            self.radiance_markdown(),
-            self.sweep_markdown(),
-            insert * 1e6,
-            wire,
-            Check::markdown(&self.checks(), false)
-        )
-    }
-
-    /// `distributed.csv`: one line a job, an animation's frame, a Radiance run.
-    pub fn csv(&self) -> String {
-        let mut lines: Vec<CsvLine> = Vec::new();
-        for (group, jobs) in [("layout", &self.jobs), ("sweep", &self.sweep)] {
-            lines.extend(jobs.iter().map(|j| CsvLine::job(group, j)));
-        }
-        for a in &self.animations {
-            for (i, f) in a.frames.iter().enumerate() {
-                lines.push(CsvLine {
-                    seconds: f.seconds,
-                    records: f.records,
-                    duplicates: Some(f.duplicates),
-                    bytes: f.bytes,
-                    ..CsvLine::new(format!("animation frame {i}"), &a.layout)
-                });
-            }
-        }
-        for r in self.radiance.iter().flat_map(|(runs, _)| runs) {
-            lines.push(CsvLine {
-                group: "radiance".to_owned(),
-                layout: format!("rtrace -n {}", r.processes),
-                ranks: r.processes,
-                threads: 1,
-                share: true,
-                batch: None,
-                seconds: r.seconds,
-                job: None,
-                records: r.records as u64,
-                duplicates: None,
-                bytes: r.ambient_bytes,
-                error: Some(r.error),
-            });
-        }
-        let batch = |l: &CsvLine, f: fn((usize, u64)) -> String| l.batch.map_or(String::new(), f);
-        Table::new()
-            .csv("group", |l: &CsvLine| l.group.clone())
-            .csv("layout", |l| l.layout.clone())
-            .csv("ranks", |l| l.ranks.to_string())
-            .csv("threads", |l| l.threads.to_string())
-            .csv("share", |l| l.share.to_string())
-            .csv("batch_records", move |l| batch(l, |b| b.0.to_string()))
-            .csv("batch_ms", move |l| batch(l, |b| b.1.to_string()))
-            .csv("seconds", |l| format!("{:.4}", l.seconds))
-            .csv("seconds_min", |l| l.of_job(|j| format!("{:.4}", j.range.0)))
-            .csv("seconds_max", |l| l.of_job(|j| format!("{:.4}", j.range.1)))
-            .csv("wall", |l| l.of_job(|j| format!("{:.3}", j.wall)))
-            .csv("records", |l| l.records.to_string())
-            .csv("records_per_rank", |l| {
-                l.of_job(|j| {
-                    let per: Vec<String> = j.computed.iter().map(u64::to_string).collect();
-                    per.join("/")
-                })
-            })
-            .csv("duplicates", |l| {
-                l.duplicates.map_or(String::new(), |d| d.to_string())
-            })
-            .csv("bytes_sent", |l| l.bytes.to_string())
-            .csv("rounds", |l| l.of_job(|j| j.rounds.to_string()))
-            .csv("collective_seconds", |l| {
-                l.of_job(|j| format!("{:.4}", j.collective_seconds))
-            })
-            .csv("insert_seconds", |l| {
-                l.of_job(|j| format!("{:.4}", j.insert_seconds))
-            })
-            .csv("records_received", |l| l.of_job(|j| j.received.to_string()))
-            .csv("rel_rmse", |l| opt(l.error.map(|e| e.rel_rmse), 5))
-            .csv("mean_rel", |l| opt(l.error.map(|e| e.mean_rel), 5))
-            .csv_text(&lines)
-    }
-
-    /// The sweep's plot: duplicates and rounds against the batch size.
-    pub fn figure(&self) -> Figure {
-        let x = |j: &Job| (j.layout.batch_records as f64).log2();
-        let ticks: Vec<(f64, String)> = self
-            .sweep
-            .iter()
-            .map(|j| (x(j), j.layout.batch_records.to_string()))
-            .collect();
-        let (lo, hi) = (
-            ticks.first().map_or(0.0, |t| t.0),
-            ticks.last().map_or(1.0, |t| t.0),
-        );
-        let base = Panel {
-            x_range: (lo, hi.max(lo + 1.0)),
-            x_ticks: ticks,
-            x_label: "BATCH (RECORDS, LOG SCALE)".into(),
-            ..Panel::default()
-        };
-        let line = |label: &str, colour, f: &dyn Fn(&Job) -> f64| Line {
-            label: label.to_owned(),
-            colour,
-            points: self.sweep.iter().map(|j| (x(j), f(j))).collect(),
-            markers: true,
-        };
-        let blue = [40, 90, 200];
-        let red = [200, 60, 40];
-        Figure {
-            header: vec![
-                format!(
-                    "BATCH SIZE: DUPLICATES AGAINST EXCHANGE ROUNDS, 2 RANKS X 1 THREAD, {} {}X{}",
-                    self.config.scene.to_uppercase(),
-                    self.config.settings.width,
-                    self.config.settings.height
-                ),
-                self.machine.banner_with_ranks(&[], &[(2, 1)]),
-            ],
-            panels: vec![
-                Panel {
-                    title: "DUPLICATE RECORDS".into(),
-                    left_label: "RECORDS".into(),
-                    lines: vec![line("duplicates", red, &|j| j.duplicates as f64)],
-                    legend: vec![("duplicates".into(), red)],
-                    ..base.clone()
-                },
-                Panel {
-                    title: "EXCHANGE ROUNDS".into(),
-                    left_label: "ROUNDS".into(),
-                    lines: vec![line("rounds", blue, &|j| j.rounds as f64)],
-                    legend: vec![("rounds".into(), blue)],
-                    ..base
-                },
-            ],
-            columns: 2,
-            panel_size: (640, 420),
-        }
-    }
-
-    /// Writes `distributed.md`, `distributed.csv`, `distributed.png` and `distributed.svg`,
-    /// each with the provenance of `command`.
-    ///
-    /// # Errors
-    /// A file that cannot be written.
-    pub fn write(&self, out_dir: &Path, command: &str) -> Result<(), String> {
-        let ranks = self.config.rank_counts();
-        let provenance = Provenance::new(command, &self.machine, &[], &ranks);
-        let out = Output::new(out_dir, &provenance)?;
-        let title = "One frame over MPI ranks: wfic's record exchange against one process, \
-                     ranks that share nothing, and Radiance's shared ambient file";
-        out.markdown("distributed.md", title, &self.markdown())?;
-        out.csv("distributed.csv", &self.csv())?;
-        if !self.sweep.is_empty() {
-            let figure = self.figure();
-            figure.write_png(&out.path("distributed.png"))?;
-            figure.write_svg(&out.path("distributed.svg"))?;
-        }
-        Ok(())
-    }
 }
 
 #[cfg(all(test, not(checker)))]
@@ -1127,36 +603,32 @@ mod tests {
     use super::*;
 
     #[test]
-    fn the_statistics_document_is_read_in_one_place() {
-        let rank = |n: u64| {
-            format!(
-                r#"{{"records_computed": {n}, "bytes_sent": {}, "records_received": 3,
-                   "rounds": 4, "collective_seconds": 0.5, "insert_seconds": 0.25}}"#,
-                10 * n
-            )
+    fn the_statistics_file_is_read_as_the_renderer_writes_it() {
+        use wfic_render::stats::{DistributedFrameStats, DistributedFrames, RankStats};
+        let rank = |n: u64| RankStats {
+            records_computed: n,
+            bytes_sent: 10 * n,
+            rounds: 4,
+            ..RankStats::default()
         };
-        let one = format!(
-            r#"{{"seconds": 1.5, "duplicates": 2, "ranks": [{}, {}]}}"#,
-            rank(7),
-            rank(9)
-        );
-        let s = rank_stats::parse(&one, false).unwrap();
-        assert_eq!((s.seconds, s.duplicates, s.ranks.len()), (1.5, 2, 2));
-        assert_eq!(s.ranks[1].records_computed, 9);
-        assert_eq!(s.ranks[1].bytes_sent, 90);
-        assert_eq!(s.ranks[0].insert_seconds, 0.25);
-        let frames = format!(
-            r#"{{"frames": [{{"seconds": 2.0, "records_computed": 5, "duplicates": 1,
-                "ranks": [{}]}}]}}"#,
-            rank(5)
-        );
-        let a = rank_stats::parse(&frames, true).unwrap();
-        assert_eq!(a.frames[0].bytes_sent, vec![50]);
-        let e = rank_stats::parse(r#"{"seconds": 1.0, "ranks": []}"#, false).unwrap_err();
-        assert!(e.contains("`duplicates`"), "{e}");
-        assert!(rank_stats::parse("{}", true)
-            .unwrap_err()
-            .contains("frames"));
+        let frame = DistributedFrameStats::new(vec![rank(7), rank(9)], 2, 1.5);
+        let stats = DistributedStats {
+            scene: "cornell".into(),
+            triangles: 32,
+            width: 8,
+            height: 8,
+            batch_records: 256,
+            batch_ms: 20,
+            share: true,
+            frames: DistributedFrames::new(vec![frame.clone()]),
+        };
+        let path = std::env::temp_dir().join(format!("wfic-dstats-{}.json", std::process::id()));
+        std::fs::write(&path, stats.to_json()).unwrap();
+        let read = read_stats(&path).unwrap();
+        assert_eq!(read.frames.frames(), [frame]);
+        std::fs::write(&path, "{}").unwrap();
+        assert!(read_stats(&path).unwrap_err().contains("wfic-dstats"));
+        std::fs::remove_file(&path).unwrap();
     }
 
     fn job(layout: Layout, computed: Vec<u64>, seconds: f64) -> Job {
