@@ -11,6 +11,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 use std::sync::Mutex;
 use std::time::Instant;
+use wfic_render::stats::{DistributedFrames, DistributedStats, RankStats};
 use wfic_render::Image;
 
 /// One job at a time: two cores.
@@ -111,38 +112,32 @@ fn single(dir: &Path, scheme: &str, rays: &str, name: &str) -> Image {
     Image::read_pfm(&png.with_extension("pfm")).unwrap()
 }
 
-/// Every rank's statistics, from rank 0's JSON.
-fn ranks(dir: &Path) -> (serde_json::Value, Vec<serde_json::Value>) {
-    let json: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(dir.join("frame.json")).unwrap()).unwrap();
-    let ranks = json["ranks"].as_array().unwrap().clone();
-    (json, ranks)
-}
-
-fn u(v: &serde_json::Value, key: &str) -> u64 {
-    v[key].as_u64().unwrap_or_else(|| panic!("{key} in {v}"))
+/// Rank 0's statistics file of a one-frame job, read through its type, and its frame's ranks.
+fn ranks(dir: &Path) -> (DistributedStats, Vec<RankStats>) {
+    let text = std::fs::read_to_string(dir.join("frame.json")).unwrap();
+    let stats = DistributedStats::from_json(&text).unwrap_or_else(|e| panic!("{e}: {text}"));
+    let DistributedFrames::One(frame) = &stats.frames else {
+        panic!("not one frame: {text}")
+    };
+    let ranks = frame.ranks.clone();
+    (stats, ranks)
 }
 
 /// Each rank received, from each other rank, exactly the records that rank sent, in its order
 /// (the digests match), and inserted no more than it received.
-fn check_exchange(ranks: &[serde_json::Value]) {
+fn check_exchange(ranks: &[RankStats]) {
     for (r, me) in ranks.iter().enumerate() {
-        let digests = me["received_digests"].as_array().unwrap();
         let from_others: u64 = ranks
             .iter()
             .enumerate()
             .filter(|(o, _)| *o != r)
-            .map(|(_, o)| u(o, "records_sent"))
+            .map(|(_, o)| o.records_sent)
             .sum();
-        assert_eq!(u(me, "records_received"), from_others, "rank {r}");
-        assert!(
-            u(me, "records_inserted") <= u(me, "records_received"),
-            "rank {r}"
-        );
+        assert_eq!(me.records_received, from_others, "rank {r}");
+        assert!(me.records_inserted <= me.records_received, "rank {r}");
         for (o, other) in ranks.iter().enumerate().filter(|(o, _)| *o != r) {
             assert_eq!(
-                digests[o].as_u64(),
-                other["sent_digest"].as_u64(),
+                me.received_digests[o], other.sent_digest,
                 "rank {r} got from rank {o} other records than it sent"
             );
         }
@@ -161,13 +156,17 @@ fn distributed_render_matches(np: u32) {
     let image = Image::read_pfm(&dir.join("frame.pfm")).unwrap();
     let (json, ranks) = ranks(&dir);
     assert_eq!(ranks.len(), np as usize);
+    assert_eq!(
+        (json.width, json.height, json.scene.as_str()),
+        (64, 64, "cornell")
+    );
     // Every tile rendered once, the work spread over the ranks.
-    let tiles: u64 = ranks.iter().map(|r| u(r, "tiles")).sum();
-    assert_eq!(tiles, 16, "{json}");
+    let tiles: usize = ranks.iter().map(|r| r.tiles).sum();
+    assert_eq!(tiles, 16, "{json:?}");
     for (r, rank) in ranks.iter().enumerate() {
-        assert!(u(rank, "tiles") > 0, "rank {r} rendered nothing: {json}");
-        assert!(u(rank, "records_computed") > 0, "rank {r}: {json}");
-        assert!(u(rank, "records_received") > 0, "rank {r}: {json}");
+        assert!(rank.tiles > 0, "rank {r} rendered nothing: {json:?}");
+        assert!(rank.records_computed > 0, "rank {r}: {json:?}");
+        assert!(rank.records_received > 0, "rank {r}: {json:?}");
     }
     check_exchange(&ranks);
     // The same picture as one process, within the renderer's noise: against the brute-force
@@ -205,11 +204,43 @@ fn ranks_that_share_nothing_exchange_nothing() {
     let (out, _) = mpirun(&[(2, args)], 120);
     assert!(out.status.success(), "{}", text(&out.stderr));
     let (json, ranks) = ranks(&dir);
+    assert!(!json.share);
     for rank in &ranks {
-        assert_eq!(u(rank, "records_received"), 0, "{json}");
-        assert_eq!(u(rank, "bytes_sent"), 0, "{json}");
-        assert!(u(rank, "records_computed") > 0, "{json}");
+        assert_eq!(rank.records_received, 0, "{json:?}");
+        assert_eq!(rank.bytes_sent, 0, "{json:?}");
+        assert!(rank.records_computed > 0, "{json:?}");
     }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn an_animation_writes_one_statistics_entry_a_frame() {
+    let dir = out_dir("frames");
+    let mut args = render_args(&dir);
+    args.extend(["--frames".to_owned(), "2".to_owned()]);
+    let (out, _) = mpirun(&[(2, args)], 120);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let text = std::fs::read_to_string(dir.join("frame.json")).unwrap();
+    let stats = DistributedStats::from_json(&text).unwrap_or_else(|e| panic!("{e}: {text}"));
+    let DistributedFrames::Many { frames } = &stats.frames else {
+        panic!("not several frames: {text}")
+    };
+    assert_eq!(frames.len(), 2, "{text}");
+    for (i, frame) in frames.iter().enumerate() {
+        assert_eq!(
+            frame.ranks.iter().map(|r| r.tiles).sum::<usize>(),
+            16,
+            "frame {i}"
+        );
+        let computed: u64 = frame.ranks.iter().map(|r| r.records_computed).sum();
+        assert_eq!(frame.records_computed, computed, "frame {i}");
+        assert!(dir.join(format!("frame-{i:03}.pfm")).is_file(), "frame {i}");
+    }
+    // The second frame reuses the first's records: it computes fewer.
+    assert!(
+        frames[1].records_computed < frames[0].records_computed,
+        "{text}"
+    );
     std::fs::remove_dir_all(&dir).unwrap();
 }
 

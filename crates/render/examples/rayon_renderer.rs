@@ -1,15 +1,15 @@
 //! A renderer that already lives on a rayon pool adopts the wait-free cache: every pool thread
 //! gets exactly one cache handle per frame (`Frame::run_on_pool`), takes image rows from a shared
-//! counter and shades them through the crate's integrator; four frames of the Cornell box orbit
-//! reuse the cache.
+//! counter and shades them through the renderer's worker loop (`wfic_render::work`); four frames
+//! of the Cornell box orbit reuse the cache.
 //!
 //! `cargo run --release --example rayon_renderer -- [SIZE] [THREADS]`
 // The renderer is compiled out under the model checkers (`cfg(checker)`, set by build.rs).
 #[cfg(not(checker))]
 mod app {
-    use std::sync::atomic::{AtomicU32, Ordering};
     use wfic::cache::{IrradianceCache, WaitFree};
-    use wfic_render::integrator::{PixelIntegrator, SampleCounters};
+    use wfic_render::integrator::PixelIntegrator;
+    use wfic_render::work::{shade, Blocks, Counter, GridRows};
     use wfic_render::{scenes, Camera, Image, RenderSettings};
 
     pub fn main() {
@@ -28,36 +28,21 @@ mod app {
         for i in 0..4 {
             let camera = Camera::orbit(&scene, i as f32 / 4.0);
             let integrator = PixelIntegrator::new(&scene, &camera, &settings, config.accuracy());
-            let next_row = AtomicU32::new(0);
+            // Every row of the image, handed out by the renderer's atomic counter.
+            let rows = GridRows::new(&settings, 1);
+            let next_row = Counter::new(rows.count());
             let frame = cache.frame();
-            // One closure call per pool thread, each with its own handle and worker id.
-            let rows = frame.run_on_pool(&pool, |handle, _worker| {
-                let mut counters = SampleCounters::default();
-                let mut rows = Vec::new();
-                loop {
-                    // Relaxed: the counter only hands each row to one thread; the pixels come
-                    // back through `run_on_pool`'s return value.
-                    let y = next_row.fetch_add(1, Ordering::Relaxed);
-                    if y >= size {
-                        break;
-                    }
-                    let row: Vec<_> = (0..size)
-                        .map(|x| integrator.pixel(x, y, handle, &mut counters))
-                        .collect();
-                    rows.push((y, row));
-                }
-                (rows, counters.ic_samples)
+            // One closure call per pool thread, each with its own handle and worker id, running
+            // the renderer's worker loop over the rows.
+            let outputs = frame.run_on_pool(&pool, |handle, _worker| {
+                shade(&integrator, &rows, &next_row, handle, |_| ())
             });
             let report = frame.close();
             let mut image = Image::new(size, size);
             let mut samples = 0;
-            for (thread_rows, computed) in rows {
-                samples += computed;
-                for (y, row) in thread_rows {
-                    for (x, p) in row.into_iter().enumerate() {
-                        image.set(x as u32, y, p);
-                    }
-                }
+            for out in outputs {
+                samples += out.counters.ic_samples;
+                out.paint(&rows, &mut image);
             }
             println!(
                 "frame {i}: {samples} records computed, {} lookups ({} hits) on {} pool threads, \

@@ -63,11 +63,6 @@ impl Camera {
         Self::look_at(eye, target, Vec3::Y, orbit.vfov_degrees)
     }
 
-    /// The camera at time `t` (turns) of the scene's orbit. See [`Camera::on_orbit`].
-    pub fn orbit(scene: &super::Scene, t: f32) -> Self {
-        Self::on_orbit(scene.orbit(), t)
-    }
-
     /// The frame for a `width` x `height` image.
     pub fn view(&self, width: u32, height: u32) -> View {
         let forward = (self.target - self.eye).normalize();

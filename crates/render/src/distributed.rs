@@ -9,9 +9,13 @@
 //! queue lengths, so no message is needed to agree on it. A slow rank asks for less, and the
 //! tiles go to whoever is short of work.
 //!
-//! Each rank's workers render through a handle that also copies every record they store into an
-//! outbox. The rank's main thread (the only one that calls MPI) runs the rounds: every
-//! `batch_ms` milliseconds, or as soon as the outbox holds `batch_records` records, it gathers
+//! Each rank's workers run the renderer's one worker loop ([`crate::work::shade`]) over the
+//! rank's tile [`Queue`], which the rounds fill and close once no tile is left; a worker that
+//! finds it empty sleeps on its condition variable. They render through a handle that also
+//! copies every record they store into an outbox. The rank's main thread (the only one that
+//! calls MPI) runs the rounds, sleeping between them on a channel of the workers' events (a tile
+//! taken, a batch ready, a worker done): every `batch_ms` milliseconds, or as soon as the outbox
+//! holds `batch_records` records, the queue runs short or the workers are done, it gathers
 //! every rank's queue length and state (`MPI_Allgather`) and every rank's new records
 //! (`MPI_Allgatherv`), and inserts the others' records into the local cache through a handle of
 //! its own (a wait-free insert beside the workers'). A collective waits for every rank, so a
@@ -25,12 +29,14 @@
 //! finishing is seen by `mpirun`, which ends the job. Nothing is written before the frame is
 //! complete on rank 0.
 
+use super::camera::Camera;
 use super::film::Image;
 use super::integrator::{PixelIntegrator, SampleCounters};
+use super::scene::Scene;
+use super::settings::RenderSettings;
 use super::stats::DistributedFrameStats;
 pub use super::stats::RankStats;
 use super::work::{self, shade, Blocks, Queue, Tiles, WorkSource};
-use super::{Camera, RenderSettings, Scene};
 use glam::Vec3;
 use mpi::datatype::PartitionMut;
 use mpi::topology::SimpleCommunicator;

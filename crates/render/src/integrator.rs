@@ -39,7 +39,7 @@ use super::camera::{Camera, View};
 use super::lights::LightChoice;
 use super::sampler::{self, Rng, Stream};
 use super::scene::Scene;
-use super::RenderSettings;
+use super::settings::RenderSettings;
 use glam::Vec3;
 use std::f32::consts::{PI, TAU};
 use std::time::{Duration, Instant};
@@ -67,6 +67,14 @@ impl Strata {
     /// Rays one estimate traces.
     pub fn rays(&self) -> u32 {
         self.theta * self.phi
+    }
+}
+
+impl RenderSettings {
+    /// The strata of one irradiance estimate (here, beside [`Strata`], so the settings need not
+    /// know the integrator).
+    pub fn strata(&self) -> Strata {
+        Strata::for_rays(self.rays_per_record)
     }
 }
 

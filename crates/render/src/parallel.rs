@@ -1,40 +1,23 @@
-//! The render loop: image tiles handed out dynamically to the workers of one cache frame
-//! (tray_rust's block queue, pbrt-v4's tile integrator), on scoped threads or on a rayon pool.
-//! What a sample computes is the integrator's ([`PixelIntegrator`]); what a frame counts is
-//! [`FrameStats`].
+//! Rendering a frame in one process: the image's tiles handed out dynamically to the workers of
+//! one cache frame (tray_rust's block queue, pbrt-v4's tile integrator), on scoped threads or on
+//! a rayon pool, and the reference grid's rows the same way. Both are an atomic counter over
+//! work items consumed by the renderer's one worker loop ([`crate::work`]). What a sample
+//! computes is the integrator's ([`PixelIntegrator`]); what a frame counts is [`FrameStats`].
 
+use super::camera::Camera;
 use super::film::Image;
 use super::integrator::{PixelIntegrator, SampleCounters};
 use super::scene::Scene;
+/// Where a frame's workers run (defined with the other settings).
+pub use super::settings::Pool;
+use super::settings::RenderSettings;
 use super::stats::FrameStats;
 use super::work::{shade, Blocks, Counter, GridRows, Tiles};
-use super::{Camera, RenderSettings};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use std::io::IsTerminal;
 use std::time::Instant;
 use wfic::cache::{CacheConfig, CacheHandle, CacheJob, IrradianceCache, NoCache, Scheme};
 use wfic::ic::{Selection, WorkerId};
-
-/// Where a frame's workers run.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum Pool {
-    /// One scoped thread per worker, started for the frame ([`wfic::cache::Frame::run`]).
-    #[default]
-    Scoped,
-    /// A rayon pool of as many threads, one cache handle per pool thread
-    /// ([`wfic::cache::Frame::run_on_pool`]).
-    Rayon,
-}
-
-impl Pool {
-    /// The name, as `--pool` spells it.
-    pub fn name(self) -> &'static str {
-        match self {
-            Self::Scoped => "threads",
-            Self::Rayon => "rayon",
-        }
-    }
-}
 
 /// A rendered frame.
 #[derive(Clone, Debug)]
@@ -243,4 +226,56 @@ pub fn render_orbit<C: IrradianceCache>(
             out.stats
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scenes;
+    use glam::Vec3;
+
+    /// A small, cheap Cornell box frame.
+    fn cornell() -> (Scene, Camera, RenderSettings, CacheConfig) {
+        let scene = scenes::cornell().unwrap();
+        let mut settings = RenderSettings::new(23, 19)
+            .rays_per_record(16)
+            .light_samples(2);
+        settings.tile_size = 8;
+        let config = settings.cache_config(&scene).unwrap();
+        let camera = scene.camera();
+        (scene, camera, settings, config)
+    }
+
+    #[test]
+    fn the_reference_is_the_same_on_any_workers() {
+        let (scene, camera, settings, config) = cornell();
+        let one = render_reference(&scene, &camera, &settings, config, 1);
+        for (pool, threads) in [(Pool::Scoped, 3), (Pool::Rayon, 2)] {
+            let settings = settings.clone().pool(pool);
+            let other = render_reference(&scene, &camera, &settings, config, threads);
+            assert_eq!(other.image, one.image, "{pool:?} x {threads}");
+            assert_eq!(other.stats.ic_samples, one.stats.ic_samples);
+            assert_eq!(other.stats.rays, one.stats.rays);
+            assert_eq!(other.stats.worker_seconds.len(), threads);
+        }
+        // One estimate per pixel that hit a diffuse surface.
+        assert!(one.stats.ic_samples > 0 && one.stats.ic_samples <= 23 * 19);
+    }
+
+    #[test]
+    fn the_reference_grid_is_the_reference_at_the_grid_pixels() {
+        let (scene, camera, settings, config) = cornell();
+        let full = render_reference(&scene, &camera, &settings, config, 1).image;
+        let (grid, _) = render_reference_grid(&scene, &camera, &settings, config, 2, 3);
+        for y in 0..settings.height {
+            for x in 0..settings.width {
+                let want = if x % 3 == 1 && y % 3 == 1 {
+                    full.get(x, y)
+                } else {
+                    Vec3::ZERO
+                };
+                assert_eq!(grid.get(x, y), want, "({x}, {y})");
+            }
+        }
+    }
 }

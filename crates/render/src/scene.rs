@@ -226,6 +226,14 @@ impl SceneBuilder {
     }
 }
 
+impl Camera {
+    /// The camera at time `t` (turns) of `scene`'s orbit. See [`Camera::on_orbit`]. (Here, with
+    /// the scene, so the camera module need not know scenes.)
+    pub fn orbit(scene: &Scene, t: f32) -> Self {
+        Self::on_orbit(scene.orbit(), t)
+    }
+}
+
 #[derive(Clone, Copy, Debug)]
 struct Tri {
     geometry: Triangle,

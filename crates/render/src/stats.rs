@@ -2,7 +2,7 @@
 //! JSON form (`wfic render --stats`).
 
 use super::integrator::{RayCounts, SampleCounters};
-use super::RenderSettings;
+use super::settings::RenderSettings;
 use wfic::cache::FrameReport;
 
 /// What the statistics JSON says about the scene besides its name.
@@ -18,7 +18,7 @@ pub struct SceneSummary {
 impl SceneSummary {
     /// The summary of `scene`: a built-in one's source from [`super::scenes::info`] when
     /// `built_in`, else `file`.
-    pub fn of(scene: &super::Scene, built_in: bool) -> Self {
+    pub fn of(scene: &super::scene::Scene, built_in: bool) -> Self {
         let source = match super::scenes::info(scene.name()) {
             Some(i) if built_in => i.source.name().to_owned(),
             _ => "file".to_owned(),

@@ -18,7 +18,7 @@
 
 use super::film::Image;
 use super::integrator::{PixelIntegrator, SampleCounters};
-use super::RenderSettings;
+use super::settings::RenderSettings;
 use glam::Vec3;
 use std::collections::VecDeque;
 // The renderer never runs under the core's model checkers (lib.rs), so the queue's lock and
