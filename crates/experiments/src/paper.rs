@@ -156,7 +156,7 @@ mod tests {
                 assert!(lw > cell(scene, Lck, t).unwrap().samples);
             }
         }
-        // Found while transcribing (paper-notes.md): every Cornell speed-up is consistent with a
+        // Found while transcribing: every Cornell speed-up is consistent with a
         // TRA time of about 3.245 s, not the printed 3.152 s; Sponza's 4-thread LCK and WF
         // speed-ups fit each other's times (7.330 / 1.935 = 3.788, 7.330 / 2.100 = 3.490).
         assert_eq!(mismatched.len(), 11, "{mismatched:?}");

@@ -361,7 +361,7 @@ pub struct SharedAmbientRun {
     pub error: ImageError,
 }
 
-/// Radiance's side of `wfic reproduce distributed`: the scene exported as [`compare_scene`]
+/// Radiance's side of `wfic reproduce distributed`: the scene exported as [`super::compare_scene`]
 /// does, one brute-force reference (`-aa 0 -ad 4N`, at one pixel in `stride` x `stride`, 2
 /// processes), and for each count in `processes` one cached run (`-ab 1 -ad N -aa a -ar res`)
 /// with that many `rtrace` processes sharing a fresh ambient file, each measured against the

@@ -18,7 +18,7 @@
 
 mod report;
 
-use crate::harness::stats::{self, median};
+use crate::harness::stats::median;
 use crate::harness::Machine;
 use wfic::cache::Scheme;
 use wfic_render::render_with_scheme;
@@ -162,12 +162,6 @@ impl Measurement {
     /// Median IC samples.
     pub fn samples(&self) -> f64 {
         self.median(|s| s.ic_samples as f64)
-    }
-
-    /// The fastest and slowest run, `min–max` seconds.
-    pub fn range(&self) -> String {
-        let (min, max) = stats::range(self.times());
-        format!("{min:.4}–{max:.4}")
     }
 
     /// The paper's overhead column: lock-wait seconds (LCK), merge seconds (LW), discarded
@@ -387,9 +381,9 @@ impl Table1 {
         ))
     }
 
-    /// The "what must hold", at 2 threads (real cores on the 2-core machine): WF's
+    /// What the reproduction must make hold, at 2 threads (real cores on the 2-core machine): WF's
     /// speed-up over TRA at least 1.8, and at least [`SPEEDUP_GOAL`] or the shortfall the
-    /// machine's; WF no slower than LCK and LW ([`Self::rival_check`]); LW computes more
+    /// machine's; WF no slower than LCK and LW (on the per-round ratios); LW computes more
     /// samples than WF; WF (`Adopt`) discards nothing.
     pub fn checks(&self) -> Vec<Check> {
         let mut out = Vec::new();
