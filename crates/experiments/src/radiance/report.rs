@@ -404,27 +404,11 @@ fn light_markdown(results: &[SceneComparison]) -> String {
 
 /// The sweep and the references, and the cross-check of both renderers' brute force.
 fn sweep_markdown(results: &[SceneComparison]) -> String {
-    let rows: Vec<Row> = results
-        .iter()
-        .flat_map(|r| r.runs.iter().map(move |run| (r, run)))
+    let rows: Vec<Row> = every_run(results)
+        .into_iter()
         .filter(|(_, run)| matches!(run.role, Role::Sweep | Role::Reference))
         .collect();
-    let t = Table::new()
-        .md("scene", |(r, _): &Row| r.scene.clone())
-        .left()
-        .md("renderer", |(_, run)| run.renderer.to_owned())
-        .left()
-        .md("role", |(_, run)| run.role.to_string())
-        .left()
-        .md("a", |(_, run)| run.accuracy.to_string())
-        .md("N", |(_, run)| run.rays.to_string())
-        .md("L", |(_, run)| run.light_samples.to_string())
-        .md("r_min px", |(_, run)| run.min_radius_pixels.to_string())
-        .md("k", |(_, run)| run.smoothing.to_string())
-        .md("seconds", |(_, run)| format!("{:.3}", run.seconds))
-        .md("records", |(_, run)| run.records.to_string())
-        .md("cache error", |(_, run)| pct(run.cache_error.rel_rmse))
-        .md("image error", |(_, run)| pct(run.image_error.rel_rmse));
+    let t = runs_table();
     let cross = Table::new()
         .md("scene", |r: &SceneComparison| r.scene.clone())
         .left()
@@ -464,38 +448,52 @@ pub fn markdown(config: &RadianceConfig, results: &[SceneComparison], version: &
     s
 }
 
-/// Every run as CSV.
-pub fn csv(results: &[SceneComparison]) -> String {
-    let rows: Vec<Row> = results
+/// Every run of every scene, with its scene.
+fn every_run(results: &[SceneComparison]) -> Vec<Row<'_>> {
+    results
         .iter()
         .flat_map(|r| r.runs.iter().map(move |run| (r, run)))
-        .collect();
+        .collect()
+}
+
+/// The runs' table: the Markdown sweep table's columns and the CSV's, defined once.
+fn runs_table<'a>() -> Table<'a, Row<'a>> {
     let e6 = |x: f64| format!("{x:.6}");
     Table::new()
-        .csv("scene", |(r, _): &Row| r.scene.clone())
+        .col("scene", "scene", |(r, _): &Row| r.scene.clone())
+        .left()
         .csv("triangles", |(r, _)| r.triangles.to_string())
         .csv("source", |(r, _)| r.source.to_owned())
-        .csv("renderer", |(_, run)| run.renderer.to_owned())
-        .csv("role", |(_, run)| run.role.to_string())
+        .col("renderer", "renderer", |(_, run)| run.renderer.to_owned())
+        .left()
+        .col("role", "role", |(_, run)| run.role.to_string())
+        .left()
         .csv("workers", |(_, run)| run.workers.to_string())
-        .csv("accuracy", |(_, run)| run.accuracy.to_string())
-        .csv("rays", |(_, run)| run.rays.to_string())
-        .csv("light_samples", |(_, run)| run.light_samples.to_string())
-        .csv("min_radius_pixels", |(_, run)| {
+        .col("a", "accuracy", |(_, run)| run.accuracy.to_string())
+        .col("N", "rays", |(_, run)| run.rays.to_string())
+        .col("L", "light_samples", |(_, run)| {
+            run.light_samples.to_string()
+        })
+        .col("r_min px", "min_radius_pixels", |(_, run)| {
             run.min_radius_pixels.to_string()
         })
-        .csv("smoothing", |(_, run)| run.smoothing.to_string())
-        .csv("seconds", |(_, run)| format!("{:.4}", run.seconds))
-        .csv("records", |(_, run)| run.records.to_string())
-        .csv("cache_rel_rmse", move |(_, run)| {
-            e6(run.cache_error.rel_rmse)
+        .col("k", "smoothing", |(_, run)| run.smoothing.to_string())
+        .col("seconds", "seconds", |(_, run)| {
+            format!("{:.3}", run.seconds)
         })
+        .csv_as(|(_, run)| format!("{:.4}", run.seconds))
+        .col("records", "records", |(_, run)| run.records.to_string())
+        .col("cache error", "cache_rel_rmse", |(_, run)| {
+            pct(run.cache_error.rel_rmse)
+        })
+        .csv_as(move |(_, run)| e6(run.cache_error.rel_rmse))
         .csv("cache_mean_rel", move |(_, run)| {
             e6(run.cache_error.mean_rel)
         })
-        .csv("image_rel_rmse", move |(_, run)| {
-            e6(run.image_error.rel_rmse)
+        .col("image error", "image_rel_rmse", |(_, run)| {
+            pct(run.image_error.rel_rmse)
         })
+        .csv_as(move |(_, run)| e6(run.image_error.rel_rmse))
         .csv("image_mean_rel", move |(_, run)| {
             e6(run.image_error.mean_rel)
         })
@@ -506,5 +504,9 @@ pub fn csv(results: &[SceneComparison]) -> String {
         .csv("cache_rel_rmse_max", move |(_, run)| {
             e6(run.cache_error_range.1)
         })
-        .csv_text(&rows)
+}
+
+/// Every run as CSV.
+pub fn csv(results: &[SceneComparison]) -> String {
+    runs_table().csv_text(&every_run(results))
 }
