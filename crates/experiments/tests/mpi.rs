@@ -167,6 +167,9 @@ fn distributed_render_matches(np: u32) {
         assert!(rank.tiles > 0, "rank {r} rendered nothing: {json:?}");
         assert!(rank.records_computed > 0, "rank {r}: {json:?}");
         assert!(rank.records_received > 0, "rank {r}: {json:?}");
+        // Every record a rank computed went out in a round: the rounds end only once its
+        // workers are done and their last records are sent.
+        assert_eq!(rank.records_sent, rank.records_computed, "rank {r}: {json:?}");
     }
     check_exchange(&ranks);
     // The same picture as one process, within the renderer's noise: against the brute-force
