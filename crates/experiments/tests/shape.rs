@@ -48,7 +48,7 @@ fn non_test(text: &str) -> Vec<&str> {
 }
 
 /// Every function of `lines` longer than `max` lines: `(line, name, length)`.
-fn long_functions(lines: &[&str], max: usize) -> Vec<(usize, String, usize)> {
+fn long_functions(lines: &[&str], max: usize) -> Vec<Long> {
     let mut out = Vec::new();
     let mut i = 0;
     while i < lines.len() {
@@ -83,8 +83,11 @@ fn long_functions(lines: &[&str], max: usize) -> Vec<(usize, String, usize)> {
     out
 }
 
+/// A function over the bound: its first line, its name, its lines.
+type Long = (usize, String, usize);
+
 /// `(path, non-test lines, long functions)` of every source file.
-fn measure() -> Vec<(PathBuf, usize, Vec<(usize, String, usize)>)> {
+fn measure() -> Vec<(PathBuf, usize, Vec<Long>)> {
     let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
     let mut files = Vec::new();
     sources(&src, true, &mut files);
