@@ -530,6 +530,16 @@ fn the_cli_writes_every_output_and_refuses_bad_input() {
         );
     }
     assert!(json.contains("\"width\": 24") && json.contains("\"scheme\": \"wf\""));
+    // ... and reads back through the type it was written through.
+    let stats = wfic_render::stats::StatsJson::from_json(&json).unwrap();
+    assert_eq!(
+        (stats.width, stats.height, stats.scheme.as_str()),
+        (24, 20, "wf")
+    );
+    assert!(
+        stats.ic_samples > 0 && stats.lookups >= stats.ic_samples,
+        "{stats:?}"
+    );
     let pfm = Image::read_pfm(&dir.join("c.pfm")).unwrap();
     assert_eq!((pfm.width(), pfm.height()), (24, 20));
     // The Radiance file holds the same picture, within RGBE's precision.

@@ -414,10 +414,10 @@ pub fn render_distributed_frames(
     fail: Option<(u32, bool)>,
 ) -> Result<Option<Vec<DistributedFrame>>, DistributedError> {
     let rank = world.rank() as u32;
-    let Some(first) = cameras.first() else {
+    if cameras.is_empty() {
         return Ok((rank == 0).then(Vec::new));
-    };
-    agree(world, scene, first, cameras, settings, exchange)?;
+    }
+    agree(world, scene, cameras, settings, exchange)?;
     let job = Job {
         world,
         rank,
@@ -442,17 +442,16 @@ pub fn render_distributed_frames(
 }
 
 /// Agreement: every rank gathers every rank's fingerprint of the scene, the settings and the
-/// cameras, so every rank reaches the same verdict.
+/// cameras (at least one), so every rank reaches the same verdict.
 fn agree(
     world: &SimpleCommunicator,
     scene: &Scene,
-    first: &Camera,
     cameras: &[Camera],
     settings: &RenderSettings,
     exchange: &Exchange,
 ) -> Result<(), DistributedError> {
     let (rank, size) = (world.rank() as u32, world.size() as usize);
-    let (mut line, print) = fingerprint(scene, first, settings, exchange);
+    let (mut line, print) = fingerprint(scene, &cameras[0], settings, exchange);
     let mut h = Fnv::new();
     h.write(print);
     h.write(cameras.len() as u64);

@@ -36,12 +36,6 @@ pub trait WorkSource: Sync {
     fn next_item(&self) -> Option<usize>;
 }
 
-impl<S: WorkSource + ?Sized> WorkSource for &S {
-    fn next_item(&self) -> Option<usize> {
-        (**self).next_item()
-    }
-}
-
 /// The items `0..count`, each handed out once, in increasing order, by an atomic counter: the
 /// source when every item of the frame is known before the workers start.
 #[derive(Debug)]
