@@ -300,9 +300,8 @@ fn table1(a: Table1Args, machine: &Machine) -> Result<(), String> {
     config.threads = a.threads.clone();
     config.controls = a.controls.unwrap_or(true);
     println!("{}", machine.banner(&config.thread_counts()));
-    let mut progress = Progress::new(config.total_frames(), a.output.quiet);
-    let t = table1::run(&config, machine, &mut |label| progress.step(label))?;
-    progress.finish();
+    let progress = Progress::new(config.total_frames(), a.output.quiet);
+    let t = progress.run(|p| table1::run(&config, machine, p))?;
     t.write(&a.output.out_dir, &command_line())?;
     for c in t.checks() {
         println!(
@@ -353,11 +352,10 @@ fn distributed(a: DistributedArgs, machine: &Machine) -> Result<(), String> {
     };
     println!("{}", machine.banner_with_ranks(&[], &config.rank_counts()));
     let quiet = a.output.quiet;
-    let mut progress = Progress::new(config.jobs(), quiet).echo(quiet);
+    let progress = Progress::new(config.jobs(), quiet).echo(quiet);
     let start = std::time::Instant::now();
     let out_dir = &a.output.out_dir;
-    let d = distributed::run(&config, machine, out_dir, &mut |label| progress.step(label))?;
-    progress.finish();
+    let d = progress.run(|p| distributed::run(&config, machine, out_dir, p))?;
     d.write(out_dir, &command_line())?;
     print_checks(&d.checks());
     println!(
@@ -386,10 +384,9 @@ fn dynamic(a: DynamicArgs, machine: &Machine) -> Result<(), String> {
         sweep: list_or(&a.sweep, a.quick, (&[4.0], &[0.5, 2.0, 4.0, 8.0])),
     };
     println!("{}", machine.banner(&config.thread_counts()));
-    let mut progress = Progress::new(config.total_frames(), a.output.quiet);
+    let progress = Progress::new(config.total_frames(), a.output.quiet);
     let start = std::time::Instant::now();
-    let d = dynamic::run(&config, machine, &mut |label| progress.step(label))?;
-    progress.finish();
+    let d = progress.run(|p| dynamic::run(&config, machine, p))?;
     d.write(&a.output.out_dir, &command_line())?;
     print_checks(&d.checks());
     println!(
@@ -411,9 +408,8 @@ fn animation(a: AnimationArgs, machine: &Machine) -> Result<(), String> {
     };
     println!("{}", machine.banner(&config.thread_counts()));
     let frames = config.frames * config.schemes.len();
-    let mut progress = Progress::new(frames, a.output.quiet);
-    let anim = animation::run(&config, machine, &mut |label| progress.step(label))?;
-    progress.finish();
+    let progress = Progress::new(frames, a.output.quiet);
+    let anim = progress.run(|p| animation::run(&config, machine, p))?;
     anim.write(&a.output.out_dir, &command_line())?;
     for o in &anim.orbits {
         println!(

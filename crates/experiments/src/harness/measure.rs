@@ -104,6 +104,13 @@ impl Progress {
     pub fn finish(&self) {
         self.bar.finish_and_clear();
     }
+
+    /// Runs `experiment` with this progress as its step callback, then clears the bar.
+    pub fn run<T>(mut self, experiment: impl FnOnce(&mut dyn FnMut(&str)) -> T) -> T {
+        let out = experiment(&mut |label| self.step(label));
+        self.finish();
+        out
+    }
 }
 
 #[cfg(test)]
