@@ -167,54 +167,44 @@ impl Table1 {
     /// `table1.csv`: one row per configuration, medians and every run's time.
     pub fn csv(&self) -> String {
         let (cores, s) = (self.machine.cores, &self.config.settings);
-        let mut t = Table::new()
+        let over = |m: &Measurement| self.machine.oversubscribed(m.threads).to_string();
+        let med = |m: &Measurement, f: fn(&FrameStats) -> f64| m.median(f).to_string();
+        let fixed =
+            |m: &Measurement, f: fn(&FrameStats) -> f64, d: usize| format!("{:.d$}", m.median(f));
+        let range = |m: &Measurement| stats::range(m.times());
+        Table::new()
             .csv("scene", |m: &Measurement| m.scene.clone())
             .csv("scheme", |m| m.scheme.name().to_owned())
             .csv("threads", |m| m.threads.to_string())
             .csv("cores", move |_| cores.to_string())
-            .csv("oversubscribed", |m| {
-                self.machine.oversubscribed(m.threads).to_string()
-            })
+            .csv("oversubscribed", over)
             .csv("width", move |_| s.width.to_string())
             .csv("height", move |_| s.height.to_string())
             .csv("runs", |m| m.runs.len().to_string())
             .csv("time_median_s", |m| format!("{:.4}", m.time()))
-            .csv("time_min_s", |m| {
-                format!("{:.4}", stats::range(m.times()).0)
-            })
-            .csv("time_max_s", |m| {
-                format!("{:.4}", stats::range(m.times()).1)
-            })
+            .csv("time_min_s", move |m| format!("{:.4}", range(m).0))
+            .csv("time_max_s", move |m| format!("{:.4}", range(m).1))
             .csv("times_s", |m| {
                 let list: Vec<String> = m.times().iter().map(|t| format!("{t:.4}")).collect();
                 list.join(";")
             })
             .csv("ic_samples_median", |m| m.samples().to_string())
-            .csv("lookups_median", |m| {
-                m.median(|s| s.lookups as f64).to_string()
+            .csv("lookups_median", move |m| med(m, |s| s.lookups as f64))
+            .csv("hits_median", move |m| med(m, |s| s.hits as f64))
+            .csv("sharing_median", move |m| fixed(m, |s| s.sharing, 4))
+            .csv("lock_wait_s_median", move |m| {
+                fixed(m, |s| s.lock_wait_seconds, 5)
             })
-            .csv("hits_median", |m| m.median(|s| s.hits as f64).to_string());
-        t = t
-            .csv("sharing_median", |m| {
-                format!("{:.4}", m.median(|s| s.sharing))
+            .csv("merge_s_median", move |m| fixed(m, |s| s.merge_seconds, 5))
+            .csv("discarded_median", move |m| med(m, |s| s.discarded as f64))
+            .csv("discarded_total", |m| {
+                m.runs.iter().map(|r| r.discarded).sum::<u64>().to_string()
             })
-            .csv("lock_wait_s_median", |m| {
-                format!("{:.5}", m.median(|s| s.lock_wait_seconds))
+            .csv("cache_records_median", move |m| {
+                med(m, |s| s.cache_records as f64)
             })
-            .csv("merge_s_median", |m| {
-                format!("{:.5}", m.median(|s| s.merge_seconds))
-            });
-        t.csv("discarded_median", |m| {
-            m.median(|s| s.discarded as f64).to_string()
-        })
-        .csv("discarded_total", |m| {
-            m.runs.iter().map(|r| r.discarded).sum::<u64>().to_string()
-        })
-        .csv("cache_records_median", |m| {
-            m.median(|s| s.cache_records as f64).to_string()
-        })
-        .csv("speedup_vs_tra", |m| format!("{:.4}", self.speedup(m)))
-        .csv_text(&self.measurements)
+            .csv("speedup_vs_tra", |m| format!("{:.4}", self.speedup(m)))
+            .csv_text(&self.measurements)
     }
 
     /// `speedup.csv`: per scene and round, the times WF's speed-up at [`CHECK_THREADS`] is
