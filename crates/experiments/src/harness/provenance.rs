@@ -176,7 +176,7 @@ impl Provenance {
     pub fn lines(&self) -> Vec<String> {
         vec![
             format!("command: `{}`", self.command),
-            format!("commit {}, {}, {}", self.commit, self.rustc, self.date),
+            format!("git commit {}; {}; {}", self.commit, self.rustc, self.date),
             self.machine.banner_with_ranks(&self.threads, &self.ranks),
         ]
     }
@@ -290,7 +290,7 @@ mod tests {
         assert!(!p.commit.is_empty() && !p.rustc.is_empty());
         let md = p.page("T", "body\n");
         assert!(
-            md.starts_with("# T\n\n- command: `wfic test`\n- commit "),
+            md.starts_with("# T\n\n- command: `wfic test`\n- git commit "),
             "{md}"
         );
         assert!(
