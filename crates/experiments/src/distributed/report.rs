@@ -79,16 +79,12 @@ impl Distributed {
     fn intro(&self) -> String {
         let s = &self.config.settings;
         format!(
-            "Jobs ran under `mpirun` {}, OpenMPI over shared memory (`btl self,vader`);              oversubscribed layouts (more processes than cores) are reported, not scaling.\n\n\
+            "Jobs ran under `mpirun` {}, OpenMPI over shared memory (`btl self,vader`). How to \
+             read this page: docs/experiments.md#distributed.\n\n\
              `{}`, {}x{}, {} primary ray a pixel, {} rays a record, {} light samples, a = {}. \
-             Each rank renders the tiles handed to it on its own WF cache; shared ranks send \
-             their new records to the others every {} records or {} ms (a variable-count \
-             allgather). Error: relative RMSE of luminance against wfic's brute-force image \
-             (`--scheme none`, {} rays a record, same seed and light samples) over the pixels of \
-             a 1-in-{}x{} grid that see a non-emitter (reference: {:.1} s). Seconds: rank 0's \
-             frame (agreement to assembled image), the median of {} run(s); `mpirun` start-up \
-             is in the wall column only. Duplicates: records computed where a record another \
-             rank computed is also valid.\n\n",
+             Shared ranks send their new records every {} records or {} ms. Reference: \
+             `--scheme none`, {} rays a record, on a 1-in-{}x{} grid ({:.1} s). Seconds: rank \
+             0's frame, the median of {} run(s).\n\n",
             if self.isolated {
                 "in a loopback-only network namespace"
             } else {
@@ -181,11 +177,8 @@ impl Distributed {
             });
         format!(
             "\n## Radiance: `rtrace -n P` sharing one ambient file\n\n{}. `rtrace -ab 1 -ad \
-             {} -aa {} -ar {} -as 0 -dj 0 -af FILE -n P`, one ray a pixel, a fresh ambient \
-             file each run; error against Radiance's own brute force (`-aa 0 -ad {}`, {:.1} \
-             s) on the same grid. Radiance's processes share records through the file (each \
-             appends its new records under a lock and reads the others'), so its \"bytes\" \
-             are the file's size, written once and read by every other process.\n\n{}",
+             {} -aa {} -ar {} -as 0 -dj 0 -af FILE -n P`, one ray a pixel; reference `-aa 0 \
+             -ad {}` ({:.1} s).\n\n{}",
             self.radiance_version,
             s.rays_per_record,
             s.accuracy,
@@ -213,9 +206,7 @@ impl Distributed {
             .md("error", |j| pct(j.error.rel_rmse));
         let mut md = format!(
             "\n## Batch size: duplicates against exchange cost (2 ranks x 1 thread, the timer \
-             off)\n\nA round starts when a rank's outbox holds the batch, or when a rank runs \
-             short of tiles (tiles are handed out at the rounds), or when a rank's workers are \
-             done.\n\n{}",
+             off)\n\n{}",
             t.markdown(&self.sweep)
         );
         let Some(n) = self.animations.first().map(|a| a.frames.len()) else {
@@ -253,11 +244,7 @@ impl Distributed {
             .md("last frame's error", |a| pct(a.last_error.rel_rmse));
         let _ = write!(
             md,
-            "\n## The orbit animation: {n} frames, the caches kept across frames\n\nThe \
-             scene's orbit camera, frame i at turn i / {n}; every rank keeps its cache (and \
-             the records the others sent) from frame to frame, as the paper's animation \
-             (§4.2) does in one process. Duplicates are counted within each frame. Error: \
-             the last frame against its brute-force image.\n\n{}",
+            "\n## The orbit animation: {n} frames, the caches kept across frames\n\n{}",
             t.markdown(&self.animations)
         );
         md
@@ -267,10 +254,7 @@ impl Distributed {
     pub fn markdown(&self) -> String {
         let (insert, wire) = self.calibration();
         format!(
-            "{}{}{}{}\n## The exchange-cost model, calibrated here\n\nEvery rank receives every \
-             other rank's records: with R ranks and M records a frame, each rank inserts about M \
-             (R - 1) / R of them and the job moves about M (R - 1) records' bytes. Measured \
-             here: {:.2} us to insert a received record, {:.0} bytes a record on the wire.\n\n\
+            "{}{}{}{}\n## The exchange-cost model, calibrated here\n\n{:.2} us to insert a received record, {:.0} bytes a record on the wire.\n\n\
              ## Checks\n\n{}",
             self.intro(),
             self.layouts_markdown(),

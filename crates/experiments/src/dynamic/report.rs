@@ -99,17 +99,9 @@ impl Dynamic {
              record, {} light samples, a = {}. Error: relative RMSE of luminance against each \
              frame's brute-force image (scheme `none`, same seed and light samples) over the \
              pixels that see a non-emitting surface; the references took {:.1} s.\n\n\
-             Worker 0, at the start of each frame after the first, removes while the others \
-             shade. `removal`: the records whose light the block changed by more than a since \
-             they were computed (`Selection::moving`): a record computed n frames ago goes when \
-             its influence sphere, grown by sqrt(min(d, s) s / (pi a)), meets the box the block \
-             swept since, d = n x the step, s the edge of the block's largest face (the margin \
-             grows to {:.0} mm). `removal-near`: every frame, the records whose influence sphere, \
-             grown by {:.0} mm (within which that face fills more than a of a point's view: \
-             sqrt(A / (pi a))), meets the block's last and new place. `removal-local`: the same \
-             grown by nothing. LW's global records go at its merge, after the frame. The removal \
-             mode ran {} times per scheme, the schemes interleaved: its seconds are each frame's \
-             median (the CSV has the range).\n\n",
+             How to read this page: docs/experiments.md#dynamic-scenes. Removal's margin: \
+             `removal` up to {:.0} mm, `removal-near` {:.0} mm. The removal mode ran {} times \
+             per scheme: its seconds are each frame's median (the CSV has the range).\n\n",
             self.config.scene,
             CORNELL_SLIDE.length() * 1000.0,
             CORNELL_SLIDE.length() * 1000.0 / (n - 1) as f32,
@@ -217,9 +209,7 @@ impl Dynamic {
         let threads = self.config.threads_of(scheme);
         format!(
             "\n## Removal's tolerance ({}, {threads} threads{}; means over frames 1..{})\n\n\
-             The tolerance is the change of light, as a fraction, that a record may have \
-             taken from the block's motion before it goes. A fresh cache: {fresh_seconds:.3} s a \
-             frame, error {}.\n\n{}",
+             A fresh cache: {fresh_seconds:.3} s a frame, error {}.\n\n{}",
             scheme.heading(),
             self.star(threads),
             self.config.frames - 1,
@@ -252,9 +242,7 @@ impl Dynamic {
         let kept: Vec<String> = self.strip.iter().map(|(i, ..)| i.to_string()).collect();
         let _ = write!(
             md,
-            "{}\n`dynamic.png`: time and error per frame. `dynamic-strip.png`: frames {} of the \
-             strip's scheme with removal (top row), stale (middle) and the reference (bottom).\n\n\
-             `*`: oversubscribed (more threads than the {} cores).\n",
+            "{}\n`dynamic-strip.png`: frames {}.\n\n`*`: oversubscribed (more threads than the {} cores).\n",
             t.markdown(&frames),
             kept.join(", "),
             self.machine.cores
@@ -375,7 +363,6 @@ impl Dynamic {
         Some(out)
     }
 
-    /// Writes `dynamic.csv`, `dynamic-sweep.csv`, `dynamic.md`, `dynamic.png`, `dynamic.svg` and
     /// Writes `dynamic.csv`, `dynamic-sweep.csv`, `dynamic.md`, `dynamic.png`, `dynamic.svg` and
     /// `dynamic-strip.png`, each with the provenance of `command`.
     pub fn write(&self, dir: &Path, command: &str) -> Result<(), String> {

@@ -4,7 +4,6 @@
 
 use super::{RadianceConfig, Role, Run, SceneComparison};
 use crate::harness::table::{pct, Table};
-use std::fmt::Write as _;
 use std::path::Path;
 use wfic_render::film::Image;
 use wfic_render::scene::luminance;
@@ -127,30 +126,25 @@ fn smoothing_label(run: &Run) -> String {
     }
 }
 
-/// The page's opening: the settings of both renderers and how the errors are measured.
+/// The page's opening: the settings of both renderers.
 fn intro(config: &RadianceConfig, version: &str) -> String {
-    let ((w, h), n, k) = (config.size, config.rays, config.reference_stride);
+    let ((w, h), n, k, a) = (
+        config.size,
+        config.rays,
+        config.reference_stride,
+        config.accuracy,
+    );
     format!(
         "Radiance: {version}.\n\n\
-         {w} x {h}, one ray per pixel (wfic's primary rays fed to `rtrace -if`). Radiance: \
-         `rtrace -ab 1 -ad {n} -as 0 -aa {} -ar {} -av 0 0 0 -aw 0 -dj 0 -lw 1e-7 -n P -af FILE` \
-         (direct light deterministic, `-dt`/`-dc`/`-ds` at Radiance's defaults); reference `-aa 0 -ad {}`. \
-         wfic: `wf`, accuracy {}, {n} rays per record, {} light samples, radius clamps at their \
-         defaults (6 to 120 pixel footprints); reference `--scheme none` with {} rays. Converged \
-         reference: wfic `none`, {} rays, {} light samples, another seed. The references are traced \
-         at one pixel of every {k} x {k} block, and every error is measured on those pixels: \
-         relative RMSE of luminance over the ones that do not see an emitter (mean relative error \
-         in brackets, over the pixels brighter than 1% of the mean). Times are wall-clock seconds \
-         of the frame (Radiance: the `rtrace` process, loading its octree included; the load \
-         alone is listed below). Every row but the references is {} render(s) of its setting \
-         (Radiance: runs with a fresh ambient file each; wfic: seeds, each against its own seed's \
-         brute-force image): the median time and record count, the mean errors. A wfic setting \
-         ending in `k K` smooths: it computes the records Ward's cache computes at its accuracy \
-         `a`, and each pixel interpolates all those valid at `K a`.\n",
-        config.accuracy,
+         How to read this page: docs/experiments.md#radiance-side-by-side.\n\n\
+         {w} x {h}, one ray per pixel. Radiance: `rtrace -ab 1 -ad {n} -as 0 -aa {a} -ar {} \
+         -av 0 0 0 -aw 0 -dj 0 -lw 1e-7 -n P -af FILE`; reference `-aa 0 -ad {}`. wfic: `wf`, \
+         accuracy {a}, {n} rays per record, {} light samples; reference `--scheme none` with {} \
+         rays. Converged reference: wfic `none`, {} rays, {} light samples, another seed. Errors \
+         on one pixel of every {k} x {k} block. Every row but the references is {} render(s) of \
+         its setting.\n",
         config.resolution,
         4 * n,
-        config.accuracy,
         config.light_samples,
         4 * n,
         4 * n,
@@ -245,7 +239,7 @@ struct EqualError<'a> {
 }
 
 /// The time at equal error, each scene's worker counts.
-fn equal_error_markdown(config: &RadianceConfig, results: &[SceneComparison]) -> String {
+fn equal_error_markdown(results: &[SceneComparison]) -> String {
     let mut rows = Vec::new();
     for r in results {
         for workers in [1, 2] {
@@ -318,18 +312,7 @@ fn equal_error_markdown(config: &RadianceConfig, results: &[SceneComparison]) ->
             if e.extra <= 0.02 { "yes" } else { "NO" }.to_owned()
         })
         .left();
-    format!(
-        "\n## Time at equal error\n\n\
-         Each worker count's wfic setting is the cheapest swept one (2 threads) at or below \
-         Radiance's cache error at that worker count. The goal holds when the frames rendered \
-         again at that setting err at or below Radiance (else `NO: error above`) and take at \
-         most 0.1x its time. A swept setting whose frames at that worker count erred above is \
-         passed over for the next cheapest (up to 4 tries; `radiance.csv` lists them as \
-         `pick-tried`). With {} render(s) a row, errors are means (the range of the renders in \
-         brackets) and times medians.\n\n{}",
-        config.repeats.max(1),
-        t.markdown(&rows)
-    )
+    format!("\n## Time at equal error\n\n{}", t.markdown(&rows))
 }
 
 /// Image noise against light samples at the pick: each count at 2 threads (1 thread beside
@@ -436,15 +419,10 @@ fn sweep_markdown(results: &[SceneComparison]) -> String {
 pub fn markdown(config: &RadianceConfig, results: &[SceneComparison], version: &str) -> String {
     let mut s = intro(config, version);
     s.push_str(&matched_markdown(results));
-    s.push_str(&equal_error_markdown(config, results));
+    s.push_str(&equal_error_markdown(results));
     s.push_str(&light_markdown(results));
     s.push_str(&sweep_markdown(results));
-    let _ = writeln!(
-        s,
-        "\nSide-by-side images: `SCENE-side-by-side.png` (top: Radiance, wfic, cached, one \
-         exposure; bottom: each one's relative error against its own brute-force image, black 0 \
-         to white 20%, grey: not measured)."
-    );
+    s.push_str("\nSide-by-side images: `SCENE-side-by-side.png`.\n");
     s
 }
 

@@ -127,15 +127,7 @@ impl Table1 {
             .left();
         format!(
             "## WF's speed-up at 2 threads, set against the machine\n\n\
-             Every ratio is taken per round, then its median and interval (order statistics, \
-             at least 95%). *Machine*: two TRA frames rendered at the same time, each on a \
-             thread and a cache of its own, against one alone (`2 TRA / twins`): the speed-up \
-             perfectly divided work with nothing shared reaches on this machine. *Idle*: the \
-             share of WF's 2 × wall-clock worker-time not spent shading tiles (the last tile's \
-             tail, starting and joining the workers, assembling the image). *Ceiling* = \
-             machine × (1 − idle): what is left for WF to reach; the gap below it is the \
-             cache's (and the noise's). *WF 1 / TRA*: WF's own cost on one thread. \
-             *Samples*: WF's IC samples at 2 threads over TRA's.\n\n{}\n",
+             How to read it: docs/experiments.md#table-1-and-figure-1.\n\n{}\n",
             t.markdown(&analyses)
         )
     }
@@ -155,10 +147,7 @@ impl Table1 {
         let _ = write!(
             md,
             "## Checks (2 threads, real cores)\n\n\
-             Timing comparisons are judged on the per-round ratios WF/rival (both frames of a round \
-             rendered seconds apart): `yes` when their median is at most 1, `tie (within noise)` \
-             when the median is above 1 but the interval (order statistics, at least 95%) contains \
-             1, `NO` when the whole interval is above 1.\n\n{}",
+             Verdicts: docs/experiments.md#how-results-are-measured-and-labelled.\n\n{}",
             Check::markdown(&self.checks(), true)
         );
         md
