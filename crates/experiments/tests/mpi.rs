@@ -169,7 +169,10 @@ fn distributed_render_matches(np: u32) {
         assert!(rank.records_received > 0, "rank {r}: {json:?}");
         // Every record a rank computed went out in a round: the rounds end only once its
         // workers are done and their last records are sent.
-        assert_eq!(rank.records_sent, rank.records_computed, "rank {r}: {json:?}");
+        assert_eq!(
+            rank.records_sent, rank.records_computed,
+            "rank {r}: {json:?}"
+        );
     }
     check_exchange(&ranks);
     // The same picture as one process, within the renderer's noise: against the brute-force
