@@ -12,9 +12,9 @@ mod bench {
     use criterion::{criterion_group, BenchmarkId, Criterion};
     use glam::Vec3;
     use std::hint::black_box;
+    use wfic::rng::Rng;
     use wfic_render::flat::Traversal;
     use wfic_render::{Camera, Material, Orbit, Scene, SceneBuilder};
-    use wfic::rng::Rng;
 
     /// `extra` random triangles in a closed unit box (12 triangles, the top one lit).
     fn soup(extra: usize) -> Scene {
