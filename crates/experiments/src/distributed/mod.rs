@@ -1,15 +1,7 @@
 //! `wfic reproduce distributed`: one frame rendered by several MPI ranks sharing their
-//! records, against one rank with the same threads, ranks that share nothing, and Radiance's
-//! own multi-process sharing (`rtrace -n P` on one ambient file).
-//!
-//! Schedule: the experiment launches `mpirun` on this very binary (`wfic render
-//! --distributed`, built with the `mpi` feature) once per job and reads rank 0's statistics and
-//! image; it needs no MPI itself. As the tests do, it runs each job in a loopback-only network
-//! namespace when it can (`unshare --net`, as root), with OpenMPI's transports restricted to
-//! shared memory. Every main layout ([`DistributedConfig::layouts`]) runs
-//! [`DistributedConfig::runs`] times and reports its median-time run; then the batch sweep, the
-//! orbit animation and Radiance. Analysis: records, duplicates and bytes against one rank, the
-//! exchange-cost model ([`Distributed::calibration`]) and the checks.
+//! records, against one rank, ranks that share nothing, and Radiance's `rtrace -n P`; each job
+//! is `mpirun` on this binary (`wfic render --distributed`), see
+//! `docs/experiments.md#distributed`.
 
 mod report;
 

@@ -1,33 +1,6 @@
 //! `wfic reproduce dynamic`: a scene that moves, and what removal buys (the paper's §5.1
-//! future work).
-//!
-//! `cornell-moving` slides the Cornell box's short block across the floor over the animation
-//! ([`scenes::cornell_moving`]); the camera stays. Each scheme renders every frame five ways
-//! ([`Mode`]):
-//!
-//! * **removal**: one cache for the whole animation; at the start of each frame after the first,
-//!   worker 0 removes, through its handle and while the other workers already shade, the records
-//!   whose light the block changed by more than the cache's accuracy since they were computed
-//!   ([`Selection::moving`]: a margin around the block that grows with how far it has moved
-//!   since each record's frame); the rest are reused. (LW's removal of global records lands at
-//!   its merge, so LW renders that frame with the stale records.)
-//! * **removal-near**: every frame, the records whose influence sphere, grown by the distance
-//!   within which the block fills more than the cache's accuracy of a point's view
-//!   ([`Selection::near`]), meets its last and its new place, however recently computed.
-//! * **removal-local**: the same with the influence spheres alone ([`Selection::touching`]): the
-//!   records whose valid region the block entered or left, not those it lights or shadows from
-//!   beside them.
-//! * **fresh**: a new, empty cache every frame (correct, and as slow as a still image).
-//! * **stale**: one cache, nothing removed (records keep the light of the block's old place).
-//!
-//! Schedule: the brute-force references, then every scheme in every mode; the removal mode then
-//! runs `passes - 1` more times per scheme, the schemes interleaved, and each frame's time is
-//! the median of its passes (the comparison of schemes frame by frame needs it: WF and LCK
-//! differ by a few percent at 2 threads); last, the tolerance sweep.
-//!
-//! Every frame is measured against a brute-force rendering of that frame (scheme `none`, the
-//! same seed and light samples, so the error is what the cache interpolates and what it kept):
-//! relative RMSE of luminance over the pixels that see a non-emitting surface.
+//! future work); the five [`Mode`]s, the schedule and how to read the page are in
+//! `docs/experiments.md#dynamic-scenes`.
 
 mod report;
 

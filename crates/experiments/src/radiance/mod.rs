@@ -1,31 +1,7 @@
 //! `wfic compare radiance`: the same scene rendered by Radiance (Ward's own irradiance cache,
-//! `rtrace -ab 1`) and by wfic (`wf`), side by side, at matched settings, each against its own
-//! brute-force image; then the wfic setting whose error is at or below Radiance's, and the time
-//! ratio there.
-//!
-//! What is matched. The geometry, materials and lights are exported from the wfic scene
-//! ([`rtrace::write_rad`]: diffuse materials as `plastic` with no specular component, emitters
-//! as one-sided `light`). The camera is matched ray for ray: wfic's own primary rays (one
-//! through each pixel's centre) are fed to `rtrace -if`, so both renderers shade exactly the
-//! same points. The cache: one bounce of indirect light (`-ab 1`, `-av 0 0 0`), the same rays
-//! per record (`-ad N -as 0`: no supersampling, which wfic does not do), the same accuracy `a`
-//! (`-aa`), Radiance's ambient resolution `-ar`. Direct light: Radiance's is deterministic
-//! (`-dj 0`); wfic samples area lights stochastically, with the same per-pixel random stream in
-//! a cached image and in its reference, so the direct term cancels in the cache error.
-//!
-//! Two errors ([`crate::harness::metrics`]). The *cache error* compares each cached image with
-//! that renderer's own brute-force image (`4N` rays, no cache): what the cache interpolates,
-//! nothing else. The *image error* compares each cached image with one converged reference
-//! (wfic `none`, `4N` rays, many light samples, another seed): what a user sees.
-//!
-//! Schedule ([`compare_scene`]): the references; the matched settings at 1 and 2 workers; a
-//! sweep of wfic's accuracy, rays per record, lower radius clamp and smoothing at 2 threads;
-//! each worker count's pick, the cheapest swept setting at or below Radiance's cache error at
-//! that count, rendered again at 1 and 2 workers ([`Role::Pick`]); the light-sample study at the
-//! pick. Every measured setting is rendered [`RadianceConfig::repeats`] times (wfic with as
-//! many seeds, each against its own seed's brute-force image; Radiance with a fresh ambient
-//! file each time), a row being their median time and record count and their mean errors
-//! ([`Run::combine`]). Report: [`report`].
+//! `rtrace -ab 1`) and by wfic (`wf`) at matched settings, each against its own brute-force
+//! image, then the time ratio at equal error ([`compare_scene`]'s schedule; what is matched and
+//! the two errors: `docs/experiments.md#radiance-side-by-side`). Report: [`report`].
 
 pub mod report;
 pub mod rtrace;

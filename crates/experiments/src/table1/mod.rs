@@ -1,20 +1,7 @@
-//! Table 1 and Figure 1: every scene rendered with an empty cache, TRA on one thread and each
-//! parallel scheme at each thread count, several runs each (medians reported).
-//!
-//! Schedule: scene by scene (each scene built once, its BVH build not timed); inside a scene,
-//! one untimed warm-up frame, then round by round, every configuration once per round, so slow
-//! drifts of the machine spread over all configurations rather than landing on one. Odd rounds
-//! run the columns in reverse order, so no column always follows the same neighbour. Every
-//! round also renders the machine control ([`Controls`]), before the columns in odd rounds and
-//! after them in even ones.
-//!
-//! Analysis: the checks compare WF with LCK and LW at 2 threads, where the difference is a
-//! fraction of a percent and one run's noise is a few percent. Those three columns therefore
-//! run [`Table1Config::paired_runs`] rounds (more than the others), and each comparison is made
-//! on the per-round ratios `WF_r / rival_r` (the two frames of a round are seconds apart, so
-//! they share the machine's state): their median, with a distribution-free confidence interval
-//! from order statistics ([`paired_ratio`]). WF's speed-up over TRA is set against the machine
-//! control ([`SpeedupAnalysis`]).
+//! Table 1 and Figure 1: every scene with an empty cache, TRA on one thread and each parallel
+//! scheme at each thread count, in interleaved rounds with the machine control ([`Controls`]);
+//! the checks on paired ratios ([`paired_ratio`], [`SpeedupAnalysis`]). The schedule and
+//! verdicts: `docs/experiments.md#how-results-are-measured-and-labelled`.
 
 mod report;
 
