@@ -20,23 +20,16 @@ pub const LIGHT_SAMPLES: u32 = 2;
 /// The experiments.
 #[derive(Clone, Debug, clap::Subcommand)]
 pub enum ReproduceCommand {
-    /// Table 1 and Figure 1: every scene with an empty cache, TRA on 1 thread and each parallel
-    /// scheme at each thread count, several runs each (medians). Writes table1.md, table1.csv,
-    /// figure1.png and figure1.svg.
+    /// Table 1 and Figure 1: every scene, empty cache, each scheme and thread count (table1.md,
+    /// .csv, figure1.png, .svg).
     Table1(Table1Args),
-    /// Figures 2 and 3: the 360° orbit reusing the cache across frames, per scheme. Writes
-    /// animation-SCENE.csv, .md, .png and .svg.
+    /// Figures 2 and 3: the 360° orbit reusing the cache, per scheme (animation-SCENE.*).
     Animation(AnimationArgs),
-    /// A scene that moves: `cornell-moving`'s short block slides across the floor; each scheme
-    /// renders every frame with removal of the records the block's swept bounds touch, with a
-    /// fresh cache, and with stale records, each against the frame's brute-force image. Writes
-    /// dynamic.md, dynamic.csv, dynamic.png, dynamic.svg and dynamic-strip.png.
+    /// A scene that moves: removal against a fresh and a stale cache, per scheme (dynamic.md,
+    /// .csv, .png, .svg, dynamic-strip.png).
     Dynamic(DynamicArgs),
-    /// One frame over MPI ranks (wfic built with `--features mpi`, OpenMPI installed): 1 rank x
-    /// 2 threads, 2 ranks x 1 thread sharing records and sharing nothing, 4 ranks
-    /// (oversubscribed on 2 cores), a sweep of the batch size, and Radiance's `rtrace -n 1` and
-    /// `-n 2` on one ambient file. Writes distributed.md, distributed.csv, distributed.png and
-    /// distributed.svg.
+    /// One frame over MPI ranks against one process and Radiance's `rtrace -n P` (needs
+    /// `--features mpi` and OpenMPI; distributed.md, .csv, .png, .svg).
     Distributed(DistributedArgs),
 }
 
@@ -105,8 +98,7 @@ pub struct DistributedArgs {
     /// Skip Radiance (otherwise `rtrace` must be found: `pip install pyradiance`).
     #[arg(long)]
     pub no_radiance: bool,
-    /// Frames of the orbit animation, caches kept across frames (default 12, quick 4; 0 or 1:
-    /// none).
+    /// Frames of the orbit animation (default 12, quick 4; 0 or 1: none).
     #[arg(long)]
     pub frames: Option<usize>,
     /// Output.
@@ -129,12 +121,10 @@ pub struct DynamicArgs {
     /// Threads of the parallel schemes (TRA runs on 1).
     #[arg(long, default_value_t = 2)]
     pub threads: usize,
-    /// Times the removal mode is rendered per scheme, the schemes interleaved; each frame's time
-    /// is their median (default 3, quick 1).
+    /// Passes of the removal mode per scheme, frame times their median (default 3, quick 1).
     #[arg(long)]
     pub passes: Option<usize>,
-    /// Further tolerances of the removal's selection, as multiples of the accuracy, rendered
-    /// with WF (default 0.5,2,4,8; quick 4).
+    /// Removal tolerances swept with WF, in multiples of a (default 0.5,2,4,8; quick 4).
     #[arg(long, value_delimiter = ',')]
     pub sweep: Vec<f32>,
     /// Schemes (default: tra, lck, lw, wf).
@@ -143,8 +133,7 @@ pub struct DynamicArgs {
     /// Image size (default 128, quick 64).
     #[command(flatten)]
     pub size: SizeArgs,
-    /// Sampling (with --quick, the primary rays and the rays per record are the quick ones
-    /// unless given).
+    /// Sampling (--quick: 1 primary ray, at most 128 rays a record).
     #[command(flatten)]
     pub sampling: SamplingArgs,
     /// Output.
@@ -188,8 +177,7 @@ impl SamplingArgs {
 /// Arguments of `wfic reproduce table1`.
 #[derive(Clone, Debug, clap::Args)]
 pub struct Table1Args {
-    /// Smaller images and fewer runs (160x160, 3 runs, 11 for the compared columns): a few
-    /// minutes on 2 cores.
+    /// 160x160, 3 runs, 11 for the compared columns: a few minutes on 2 cores.
     #[arg(long)]
     pub quick: bool,
     /// Scenes (default: all five).
@@ -204,8 +192,7 @@ pub struct Table1Args {
     /// Timed runs per column (default: 3 with --quick, 5 without).
     #[arg(long)]
     pub runs: Option<usize>,
-    /// Timed runs of the columns the checks compare, TRA, and LCK, LW and WF at 2 threads
-    /// (default: 11 with --quick, 15 without; at least --runs).
+    /// Runs of TRA and of LCK, LW, WF at 2 threads (default 11 quick, 15; at least --runs).
     #[arg(long)]
     pub paired_runs: Option<usize>,
     /// Image size (default 320, quick 160).
@@ -214,10 +201,8 @@ pub struct Table1Args {
     /// Sampling.
     #[command(flatten)]
     pub sampling: SamplingArgs,
-    /// Render the machine control (WF on one thread and two TRA frames at once, every paired
-    /// round) and the table that sets WF's speed-up against the machine (default: true, with
-    /// --quick too: a speed-up the busy machine cannot reach then reads "the machine's", not
-    /// NO).
+    /// Render the machine control (WF on 1 thread, two TRA frames at once) each round (default
+    /// true).
     #[arg(long)]
     pub controls: Option<bool>,
     /// Output.
@@ -442,10 +427,8 @@ pub fn run(command: ReproduceCommand) -> Result<(), String> {
 /// What `wfic compare` compares wfic with.
 #[derive(Clone, Debug, clap::Subcommand)]
 pub enum CompareCommand {
-    /// Radiance (`rtrace -ab 1`, Ward's own irradiance cache) and wfic (`wf`) on the same
-    /// scene, camera and settings, each against its own brute-force image; then the wfic setting
-    /// at or below Radiance's error and the time ratio there. Writes radiance.md, radiance.csv
-    /// and SCENE-side-by-side.png. Needs Radiance's binaries (`pip install pyradiance`).
+    /// Radiance (`rtrace -ab 1`) beside wfic at matched settings, and the time ratio at equal
+    /// error (radiance.md, .csv, SCENE-side-by-side.png; needs `pip install pyradiance`).
     Radiance(RadianceArgs),
 }
 
@@ -476,8 +459,7 @@ pub struct RadianceArgs {
     /// Keep the exported scene, rays and ambient files (DIR/work-SCENE/).
     #[arg(long)]
     pub keep_work: bool,
-    /// Renders of every measured setting, each row their median time and mean error (Radiance:
-    /// fresh ambient files; wfic: seeds). Default 3, quick 1.
+    /// Renders of every measured setting: median time, mean error (default 3, quick 1).
     #[arg(long)]
     pub repeats: Option<u32>,
 }

@@ -244,23 +244,12 @@ fn equal_error_markdown(results: &[SceneComparison]) -> String {
     for r in results {
         for workers in [1, 2] {
             // This worker count's pick: one setting for both, or one each.
+            let pick = |reached, workers| Role::Pick { reached, workers };
             let own = [
-                Role::Pick {
-                    reached: true,
-                    workers: None,
-                },
-                Role::Pick {
-                    reached: false,
-                    workers: None,
-                },
-                Role::Pick {
-                    reached: true,
-                    workers: Some(workers),
-                },
-                Role::Pick {
-                    reached: false,
-                    workers: Some(workers),
-                },
+                pick(true, None),
+                pick(false, None),
+                pick(true, Some(workers)),
+                pick(false, Some(workers)),
             ];
             let Some(role) = own
                 .into_iter()

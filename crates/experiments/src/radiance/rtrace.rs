@@ -198,28 +198,6 @@ fn read_floats(path: &Path, (w, h): (u32, u32), stride: u32) -> Result<Image, St
     Ok(img)
 }
 
-/// `rtrace` on the octree `oct` as both comparisons run it: one bounce (`-ab 1`), no ambient
-/// value or weight, deterministic direct light (`-dj 0`), binary floats in and out, `workers`
-/// processes, sharing the ambient file `amb` when given; `args` add the cache's settings.
-fn rtrace_command(
-    bin: &RadianceBin,
-    oct: &Path,
-    args: &[String],
-    workers: usize,
-    amb: Option<&Path>,
-) -> Command {
-    let mut c = bin.command("rtrace");
-    c.args(["-h-", "-fff", "-ab", "1", "-av", "0", "0", "0", "-aw", "0"]);
-    c.args(["-dj", "0", "-lw", "1e-7"]);
-    c.args(args);
-    c.args(["-n", &workers.to_string()]);
-    if let Some(amb) = amb {
-        c.arg("-af").arg(amb);
-    }
-    c.arg(oct);
-    c
-}
-
 /// Records in a Radiance ambient file, counted from `lookamb -h`'s text (one `Position` line a
 /// record). A missing file (no record was written) counts 0.
 fn ambient_records(bin: &RadianceBin, amb: &Path) -> Result<usize, String> {
@@ -291,8 +269,19 @@ impl<'a> Rtrace<'a> {
         })
     }
 
+    /// `rtrace` as both comparisons run it: one bounce, no ambient value or weight,
+    /// deterministic direct light, binary floats in and out, `workers` processes sharing the
+    /// ambient file `amb` when given; `args` add the cache's settings.
     fn rtrace(&self, args: &[String], workers: usize, amb: Option<&Path>) -> Command {
-        rtrace_command(self.bin, &self.oct, args, workers, amb)
+        let mut c = self.bin.command("rtrace");
+        c.args(["-h-", "-fff", "-ab", "1", "-av", "0", "0", "0", "-aw", "0"]);
+        c.args(["-dj", "0", "-lw", "1e-7"]).args(args);
+        c.args(["-n", &workers.to_string()]);
+        if let Some(amb) = amb {
+            c.arg("-af").arg(amb);
+        }
+        c.arg(&self.oct);
+        c
     }
 
     /// Seconds `rtrace` takes to load the octree and trace one ray.
@@ -326,17 +315,8 @@ impl<'a> Rtrace<'a> {
         let amb = self.work.join(format!("{name}.amb"));
         std::fs::remove_file(&amb).ok();
         let out = self.work.join(format!("{name}.f32"));
-        let args = [
-            "-ad",
-            &rays.to_string(),
-            "-as",
-            "0",
-            "-aa",
-            &accuracy.to_string(),
-            "-ar",
-            &resolution.to_string(),
-        ]
-        .map(str::to_owned);
+        let args = format!("-ad {rays} -as 0 -aa {accuracy} -ar {resolution}");
+        let args: Vec<String> = args.split(' ').map(str::to_owned).collect();
         let cmd = self.rtrace(&args, workers, Some(&amb));
         let seconds = run_to_file(cmd, Some(&self.rays), &out, "rtrace")?;
         let img = read_floats(&out, self.size, 1)?;
@@ -361,15 +341,9 @@ pub struct SharedAmbientRun {
     pub error: ImageError,
 }
 
-/// Radiance's side of `wfic reproduce distributed`: the scene exported as [`super::compare_scene`]
-/// does, one brute-force reference (`-aa 0 -ad 4N`, at one pixel in `stride` x `stride`, 2
-/// processes), and for each count in `processes` one cached run (`-ab 1 -ad N -aa a -ar res`)
-/// with that many `rtrace` processes sharing a fresh ambient file, each measured against the
-/// reference over the non-emitter pixels of the grid. Returns the runs and the reference's
-/// seconds. Work files go to `work`.
-///
-/// # Errors
-/// A Radiance tool that fails, or a file that cannot be written or read.
+/// Radiance's side of `wfic reproduce distributed`: one brute-force reference (`-aa 0 -ad 4N`
+/// on the grid) and, per count in `processes`, one cached run of that many `rtrace` processes
+/// sharing a fresh ambient file, against it; the runs and the reference's seconds.
 pub fn shared_ambient(
     bin: &RadianceBin,
     scene: &Scene,
