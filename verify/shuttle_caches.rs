@@ -14,7 +14,7 @@ mod tree_shape;
 use glam::Vec3;
 use shuttle_common::{explore_all, Sched};
 use std::collections::HashSet;
-use tree_shape::{check_lookup, counted_lookup, TreeShape};
+use tree_shape::{check_lookup, counted_lookup, TreeShape, Work};
 use wfic::cache::wf::Minimal;
 use wfic::cache::{
     CacheConfig, CacheHandle, CasFailure, Inserted, IrradianceCache, LocalWrite, Locked,
@@ -57,6 +57,47 @@ fn genuine(r: &Record) -> bool {
     r.is_intact() && r.position == expected.position && r.irradiance == expected.irradiance
 }
 
+/// One worker of [`workload`]: `ops` operations, one insert in `insert_every`, the rest lookups
+/// at positions the other workers insert at; every record a lookup returns is genuine, and every
+/// insert stays within the step bound. Returns the inserts' outcomes and each lookup's point and
+/// work.
+fn worker<C: IrradianceCache>(
+    cache: &C,
+    t: u32,
+    threads: u32,
+    ops: u64,
+    insert_every: u64,
+) -> (Vec<Inserted>, Vec<(Vec3, Work)>) {
+    let scheme = cache.scheme().name();
+    let mut h = cache.handle(WorkerId::new(t));
+    let mut outcomes = Vec::new();
+    let mut lookups = Vec::new();
+    let mut found = Vec::new();
+    for i in 0..ops {
+        if i % insert_every == 0 {
+            let seq = outcomes.len() as u64;
+            outcomes.push(h.insert(record_for(t, seq)).expect("valid record"));
+        } else {
+            let other = (t + 1 + (i as u32 % threads.max(2))) % threads;
+            let q = record_for(other, i / insert_every);
+            found.clear();
+            let did = counted_lookup(&mut h, q.position, q.normal, &mut found);
+            lookups.push((q.position, did));
+            assert!(
+                found.iter().all(genuine),
+                "{scheme}: phantom or torn record"
+            );
+        }
+    }
+    let steps = h.stats().max_insert_steps;
+    assert!(
+        steps <= 2 * MAX_RECORD_DEPTH,
+        "{scheme}: an insert took {steps} steps, bound {}",
+        2 * MAX_RECORD_DEPTH
+    );
+    (outcomes, lookups)
+}
+
 /// One schedule: `threads` workers, each doing `ops` operations, one insert in `insert_every`, the
 /// rest lookups at positions other workers insert at. Checks racing reads, then the final state,
 /// then every lookup's work against the tree the stored records make (`tree_shape`).
@@ -67,35 +108,7 @@ fn workload<C: IrradianceCache + 'static>(cache: C, threads: u32, ops: u64, inse
     let workers: Vec<_> = (0..threads)
         .map(|t| {
             let cache = cache.clone();
-            thread::spawn(move || {
-                let mut h = cache.handle(WorkerId::new(t));
-                let mut outcomes = Vec::new();
-                let mut lookups = Vec::new();
-                let mut found = Vec::new();
-                for i in 0..ops {
-                    if i % insert_every == 0 {
-                        let seq = outcomes.len() as u64;
-                        outcomes.push(h.insert(record_for(t, seq)).expect("valid record"));
-                    } else {
-                        let other = (t + 1 + (i as u32 % threads.max(2))) % threads;
-                        let q = record_for(other, i / insert_every);
-                        found.clear();
-                        let did = counted_lookup(&mut h, q.position, q.normal, &mut found);
-                        lookups.push((q.position, did));
-                        assert!(
-                            found.iter().all(genuine),
-                            "{scheme}: phantom or torn record"
-                        );
-                    }
-                }
-                let steps = h.stats().max_insert_steps;
-                assert!(
-                    steps <= 2 * MAX_RECORD_DEPTH,
-                    "{scheme}: an insert took {steps} steps, bound {}",
-                    2 * MAX_RECORD_DEPTH
-                );
-                (outcomes, lookups)
-            })
+            thread::spawn(move || worker(&*cache, t, threads, ops, insert_every))
         })
         .collect();
     let mut stored = HashSet::new();
