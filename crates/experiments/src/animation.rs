@@ -71,13 +71,9 @@ pub struct AnimationConfig {
 }
 
 impl AnimationConfig {
-    /// Threads `scheme` runs on.
+    /// Threads `scheme` runs on ([`crate::harness::threads_of`]).
     pub fn threads_of(&self, scheme: Scheme) -> usize {
-        if scheme == Scheme::Tra {
-            1
-        } else {
-            self.threads
-        }
+        crate::harness::threads_of(scheme, self.threads)
     }
 
     /// Every scheme's thread count, in plot order.
@@ -367,9 +363,7 @@ impl Animation {
             self.config.scene, self.config.frames
         );
         out.markdown(&format!("{stem}.md"), &title, &self.markdown())?;
-        let figure = self.figure();
-        figure.write_png(&out.path(&format!("{stem}.png")))?;
-        figure.write_svg(&out.path(&format!("{stem}.svg")))
+        out.figure(&stem, &self.figure())
     }
 }
 

@@ -407,9 +407,7 @@ impl Distributed {
         out.markdown("distributed.md", title, &self.markdown())?;
         out.csv("distributed.csv", &self.csv())?;
         if !self.sweep.is_empty() {
-            let figure = self.figure();
-            figure.write_png(&out.path("distributed.png"))?;
-            figure.write_svg(&out.path("distributed.svg"))?;
+            out.figure("distributed", &self.figure())?;
         }
         Ok(())
     }

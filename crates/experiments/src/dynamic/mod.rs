@@ -40,13 +40,9 @@ pub struct DynamicConfig {
 }
 
 impl DynamicConfig {
-    /// Threads `scheme` runs on.
+    /// Threads `scheme` runs on ([`crate::harness::threads_of`]).
     pub fn threads_of(&self, scheme: Scheme) -> usize {
-        if scheme == Scheme::Tra {
-            1
-        } else {
-            self.threads
-        }
+        crate::harness::threads_of(scheme, self.threads)
     }
 
     /// Every scheme's thread count, in table order.
@@ -229,11 +225,7 @@ impl Frames<'_> {
         keep: &[usize],
         progress: &mut dyn FnMut(&str),
     ) -> (Vec<Row>, Vec<Image>) {
-        let threads = if scheme == Scheme::Tra {
-            1
-        } else {
-            self.threads
-        };
+        let threads = crate::harness::threads_of(scheme, self.threads);
         let job = Animate {
             frames: self,
             span,

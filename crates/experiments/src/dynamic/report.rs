@@ -372,9 +372,7 @@ impl Dynamic {
         let title = "A scene that moves: removal against a fresh and a stale cache";
         out.markdown("dynamic.md", title, &self.markdown())?;
         out.csv("dynamic-sweep.csv", &self.sweep_csv())?;
-        let figure = self.figure();
-        figure.write_png(&out.path("dynamic.png"))?;
-        figure.write_svg(&out.path("dynamic.svg"))?;
+        out.figure("dynamic", &self.figure())?;
         if let Some(strip) = self.strip_image() {
             let path = out.path("dynamic-strip.png");
             strip

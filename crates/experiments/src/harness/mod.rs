@@ -23,3 +23,12 @@ pub mod table;
 pub use check::{Check, Verdict};
 pub use provenance::{write_file, Machine, Output, Provenance};
 pub use stats::median;
+
+/// Threads `scheme` runs on when the parallel schemes run on `threads`: TRA always on one.
+pub fn threads_of(scheme: wfic::cache::Scheme, threads: usize) -> usize {
+    if scheme == wfic::cache::Scheme::Tra {
+        1
+    } else {
+        threads
+    }
+}

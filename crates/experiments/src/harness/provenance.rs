@@ -222,6 +222,12 @@ impl<'a> Output<'a> {
         write_file(&self.path(name), &self.provenance.page(title, body))
     }
 
+    /// Writes `figure` as `STEM.png` and `STEM.svg`.
+    pub fn figure(&self, stem: &str, figure: &crate::plot::Figure) -> Result<(), String> {
+        figure.write_png(&self.path(&format!("{stem}.png")))?;
+        figure.write_svg(&self.path(&format!("{stem}.svg")))
+    }
+
     /// Writes the CSV `name` as it is (a CSV reader sees only the table) and its header beside
     /// it, in `NAME.provenance` (one line each).
     pub fn csv(&self, name: &str, text: &str) -> Result<(), String> {

@@ -368,8 +368,6 @@ impl Table1 {
         if !self.controls.is_empty() {
             out.csv("speedup.csv", &self.speedup_csv())?;
         }
-        let figure = self.figure();
-        figure.write_png(&out.path("figure1.png"))?;
-        figure.write_svg(&out.path("figure1.svg"))
+        out.figure("figure1", &self.figure())
     }
 }
