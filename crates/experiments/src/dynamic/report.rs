@@ -35,12 +35,27 @@ impl Summary<'_> {
     }
 }
 
+/// The CSV columns both CSVs share, `seconds` to `records`, of the row `row` picks.
+fn frame_columns<'a, R: 'a>(t: Table<'a, R>, row: fn(&R) -> &Row) -> Table<'a, R> {
+    t.csv("seconds", move |r| format!("{:.6}", row(r).seconds))
+        .csv("seconds_min", move |r| {
+            format!("{:.6}", row(r).seconds_range.0)
+        })
+        .csv("seconds_max", move |r| {
+            format!("{:.6}", row(r).seconds_range.1)
+        })
+        .csv("passes", move |r| row(r).passes.to_string())
+        .csv("ic_samples", move |r| row(r).ic_samples.to_string())
+        .csv("removed", move |r| row(r).removed.to_string())
+        .csv("records", move |r| row(r).records.to_string())
+}
+
 impl Dynamic {
     /// `dynamic.csv`: one row per scheme, mode and frame.
     pub fn csv(&self) -> String {
         let s = &self.config.settings;
         let m = &self.machine;
-        Table::new()
+        let t = Table::new()
             .csv("scene", |_: &Row| self.config.scene.clone())
             .csv("scheme", |r| r.scheme.name().to_owned())
             .csv("mode", |r| r.mode.name().to_owned())
@@ -51,14 +66,8 @@ impl Dynamic {
             })
             .csv("width", |_| s.width.to_string())
             .csv("height", |_| s.height.to_string())
-            .csv("frame", |r| r.frame.to_string())
-            .csv("seconds", |r| format!("{:.6}", r.seconds))
-            .csv("seconds_min", |r| format!("{:.6}", r.seconds_range.0))
-            .csv("seconds_max", |r| format!("{:.6}", r.seconds_range.1))
-            .csv("passes", |r| r.passes.to_string())
-            .csv("ic_samples", |r| r.ic_samples.to_string())
-            .csv("removed", |r| r.removed.to_string())
-            .csv("records", |r| r.records.to_string())
+            .csv("frame", |r| r.frame.to_string());
+        frame_columns(t, |r| r)
             .csv("nodes", |r| r.nodes.to_string())
             .csv("bytes_estimate", |r| r.bytes().to_string())
             .csv("rel_rmse", |r| format!("{:.6}", r.error))
@@ -73,18 +82,12 @@ impl Dynamic {
             .into_iter()
             .flat_map(|(t, rows)| rows.into_iter().map(move |r| (t, r)))
             .collect();
-        Table::new()
+        let t = Table::new()
             .csv("scheme", |(_, r): &(f32, &Row)| r.scheme.name().to_owned())
             .csv("threads", |(_, r)| r.threads.to_string())
             .csv("tolerance", |(t, _)| t.to_string())
-            .csv("frame", |(_, r)| r.frame.to_string())
-            .csv("seconds", |(_, r)| format!("{:.6}", r.seconds))
-            .csv("seconds_min", |(_, r)| format!("{:.6}", r.seconds_range.0))
-            .csv("seconds_max", |(_, r)| format!("{:.6}", r.seconds_range.1))
-            .csv("passes", |(_, r)| r.passes.to_string())
-            .csv("ic_samples", |(_, r)| r.ic_samples.to_string())
-            .csv("removed", |(_, r)| r.removed.to_string())
-            .csv("records", |(_, r)| r.records.to_string())
+            .csv("frame", |(_, r)| r.frame.to_string());
+        frame_columns(t, |(_, r)| r)
             .csv("rel_rmse", |(_, r)| format!("{:.6}", r.error))
             .csv_text(&rows)
     }

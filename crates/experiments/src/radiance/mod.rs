@@ -138,6 +138,11 @@ pub enum Role {
 }
 
 impl Role {
+    /// [`Role::Pick`].
+    pub fn pick(reached: bool, workers: Option<usize>) -> Self {
+        Role::Pick { reached, workers }
+    }
+
     /// The name tables and the CSV use.
     pub fn name(self) -> &'static str {
         match self {
@@ -356,10 +361,7 @@ pub fn compare_scene(
         } else {
             counts.first().copied()
         };
-        let role = Role::Pick {
-            reached: *reached,
-            workers,
-        };
+        let role = Role::pick(*reached, workers);
         for (w, frame) in frames.iter_mut().enumerate() {
             let mut run = match frame.take() {
                 Some(run) => run,

@@ -3,6 +3,7 @@
 //! and the side-by-side images.
 
 use super::{RadianceConfig, Role, Run, SceneComparison};
+use crate::harness::metrics::ImageError;
 use crate::harness::table::{pct, Table};
 use std::path::Path;
 use wfic_render::film::Image;
@@ -90,6 +91,11 @@ pub fn speed_goal(role: Role, wf: &Run, rad: &Run) -> &'static str {
     }
 }
 
+/// An error as `rel. RMSE (mean rel.)`.
+fn both(e: &ImageError) -> String {
+    format!("{} ({})", pct(e.rel_rmse), pct(e.mean_rel))
+}
+
 /// A row's mean cache error, with the range of its renders when there were several.
 fn with_range(run: &Run) -> String {
     if run.repeats > 1 {
@@ -158,7 +164,7 @@ type Row<'a> = (&'a SceneComparison, &'a Run);
 
 /// The matched rows and each pick's, at 1 and 2 workers.
 fn matched_markdown(results: &[SceneComparison]) -> String {
-    let pick = |reached, workers| Role::Pick { reached, workers };
+    let pick = Role::pick;
     let mut rows: Vec<(Row, &Run)> = Vec::new();
     for r in results {
         for (renderer, role) in [
@@ -210,20 +216,8 @@ fn matched_markdown(results: &[SceneComparison]) -> String {
                 String::new()
             }
         })
-        .md("cache error", |((_, run), _)| {
-            format!(
-                "{} ({})",
-                pct(run.cache_error.rel_rmse),
-                pct(run.cache_error.mean_rel)
-            )
-        })
-        .md("image error", |((_, run), _)| {
-            format!(
-                "{} ({})",
-                pct(run.image_error.rel_rmse),
-                pct(run.image_error.mean_rel)
-            )
-        });
+        .md("cache error", |((_, run), _)| both(&run.cache_error))
+        .md("image error", |((_, run), _)| both(&run.image_error));
     t.markdown(&rows)
 }
 
@@ -244,7 +238,7 @@ fn equal_error_markdown(results: &[SceneComparison]) -> String {
     for r in results {
         for workers in [1, 2] {
             // This worker count's pick: one setting for both, or one each.
-            let pick = |reached, workers| Role::Pick { reached, workers };
+            let pick = Role::pick;
             let own = [
                 pick(true, None),
                 pick(false, None),
@@ -385,11 +379,7 @@ fn sweep_markdown(results: &[SceneComparison]) -> String {
         .md("scene", |r: &SceneComparison| r.scene.clone())
         .left()
         .md("Radiance brute force vs converged wfic: error", |r| {
-            format!(
-                "{} ({})",
-                pct(r.cross_check.rel_rmse),
-                pct(r.cross_check.mean_rel)
-            )
+            both(&r.cross_check)
         })
         .md("mean luminance ratio", |r| format!("{:.4}", r.mean_ratio))
         .md("rtrace load + 1 ray (s)", |r| {
