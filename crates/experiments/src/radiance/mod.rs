@@ -287,10 +287,13 @@ impl SceneComparison {
     }
 }
 
-/// Progress lines go to standard error.
-fn say(scene: &str, what: &str) {
-    eprintln!("[{scene}] {what}");
+/// A progress line, `[SCENE] what`, to standard error.
+macro_rules! say {
+    ($scene:expr, $($what:tt)*) => {
+        eprintln!("[{}] {}", $scene, format_args!($($what)*))
+    };
 }
+pub(crate) use say;
 
 /// Runs the comparison and writes `radiance.md`, `radiance.csv` and one side-by-side PNG per
 /// scene into `out_dir`, the files headed by the provenance of `command`.
@@ -331,9 +334,10 @@ pub fn compare_scene(
     let name = scene.name().to_owned();
     let work = out_dir.join(format!("work-{name}"));
     let base = config.settings(config.accuracy, config.rays, config.light_samples, 0x5eed);
-    say(
+    say!(
         &name,
-        &format!("exporting {} triangles to Radiance", scene.triangle_count()),
+        "exporting {} triangles to Radiance",
+        scene.triangle_count()
     );
     let rtrace = Rtrace::prepare(bin, scene, &base, config.reference_stride, &work)?;
     let load = rtrace.load_seconds()?;
@@ -378,13 +382,11 @@ pub fn compare_scene(
         for workers in [1, 2] {
             let run = wfic_refs.wfic(scene, Role::LightSamples, &s, workers)?;
             if workers == 2 {
-                say(
+                say!(
                     &name,
-                    &format!(
-                        "light samples {l}: {:.3} s, image error {:.2}%",
-                        run.seconds,
-                        100.0 * run.image_error.rel_rmse
-                    ),
+                    "light samples {l}: {:.3} s, image error {:.2}%",
+                    run.seconds,
+                    100.0 * run.image_error.rel_rmse
                 );
             }
             runs.push(run);

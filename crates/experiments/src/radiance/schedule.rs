@@ -94,24 +94,20 @@ impl SceneReferences {
             config.accuracy,
             config.reference_stride,
         );
-        say(
+        say!(
             name,
-            &format!(
-                "radiance reference: -aa 0 -ad {}, 2 processes, 1 pixel in {}",
-                4 * n,
-                k * k
-            ),
+            "radiance reference: -aa 0 -ad {}, 2 processes, 1 pixel in {}",
+            4 * n,
+            k * k
         );
         let (radiance, radiance_seconds) = rtrace.reference(4 * n)?;
         // wfic's references on the same grid: brute force with the matched light samples (cache
         // error), and the converged one (image error) with more light samples and another seed.
         let repeats = config.repeats.max(1);
-        say(
+        say!(
             name,
-            &format!(
-                "wfic reference: none, {} rays, 2 threads, {repeats} seed(s)",
-                4 * n
-            ),
+            "wfic reference: none, {} rays, 2 threads, {repeats} seed(s)",
+            4 * n
         );
         let wfic_settings = config.settings(a, 4 * n, config.light_samples, seed_of(0));
         let rc = wfic_settings
@@ -125,12 +121,10 @@ impl SceneReferences {
             own.push(render_reference_grid(scene, &camera, &rs, rc, 2, k));
         }
         let light = config.converged_light_samples;
-        say(
+        say!(
             name,
-            &format!(
-                "converged reference: none, {} rays, {light} light samples",
-                4 * n
-            ),
+            "converged reference: none, {} rays, {light} light samples",
+            4 * n
         );
         let conv_settings = config.settings(a, 4 * n, light, 0xc0ffee);
         let (converged, _) = render_reference_grid(scene, &camera, &conv_settings, rc, 2, k);
@@ -201,13 +195,11 @@ pub(super) fn matched(
     let mut radiance_images = Vec::new();
     for workers in [1, 2] {
         let rows = repeat(repeats as usize, |i| {
-            say(
+            say!(
                 name,
-                &format!(
-                    "radiance: -aa {a} -ad {n} -ar {}, {workers} process(es), run {} of {repeats}",
-                    config.resolution,
-                    i + 1
-                ),
+                "radiance: -aa {a} -ad {n} -ar {}, {workers} process(es), run {} of {repeats}",
+                config.resolution,
+                i + 1
             );
             let setting = (a, n, config.resolution);
             let (img, seconds, records, _) =
@@ -231,9 +223,9 @@ pub(super) fn matched(
     let base = config.settings(a, n, config.light_samples, 0x5eed);
     let mut wfic_images = Vec::new();
     for workers in [1, 2] {
-        say(
+        say!(
             name,
-            &format!("wfic: wf, a {a}, {n} rays, {workers} thread(s), {repeats} seed(s)"),
+            "wfic: wf, a {a}, {n} rays, {workers} thread(s), {repeats} seed(s)"
         );
         let (run, img) = refs
             .wfic()
@@ -266,16 +258,14 @@ pub(super) fn sweep(
                         .smoothing(k);
                     s.min_radius_pixels = rmin;
                     let run = refs.wfic(scene, Role::Sweep, &s, 2)?;
-                    say(
+                    say!(
                         scene.name(),
-                        &format!(
-                            "sweep {}: {:.3} s, {} records, cache error {:.2}% (radiance {:.2}%)",
-                            report::wfic_setting(&run),
-                            run.seconds,
-                            run.records,
-                            100.0 * run.cache_error.rel_rmse,
-                            100.0 * target
-                        ),
+                        "sweep {}: {:.3} s, {} records, cache error {:.2}% (radiance {:.2}%)",
+                        report::wfic_setting(&run),
+                        run.seconds,
+                        run.records,
+                        100.0 * run.cache_error.rel_rmse,
+                        100.0 * target
                     );
                     swept.push((run, s));
                 }
@@ -337,14 +327,12 @@ pub(super) fn picks(
                 }
             }
             let run = refs.wfic(scene, Role::PickTried, st, workers)?;
-            say(
+            say!(
                 scene.name(),
-                &format!(
-                    "{workers}-worker pick {}: cache error {:.2}% (radiance {:.2}%)",
-                    report::wfic_setting(&run),
-                    100.0 * run.cache_error.rel_rmse,
-                    100.0 * t
-                ),
+                "{workers}-worker pick {}: cache error {:.2}% (radiance {:.2}%)",
+                report::wfic_setting(&run),
+                100.0 * run.cache_error.rel_rmse,
+                100.0 * t
             );
             if run.cache_error.rel_rmse <= t {
                 found = Some((st.clone(), run));
