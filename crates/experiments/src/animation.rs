@@ -283,25 +283,16 @@ impl Animation {
                     f0.ic_samples
                 ));
             }
-            let pts = |g: &dyn Fn(&FrameStats) -> f64| -> Vec<(f64, f64)> {
-                o.frames
-                    .iter()
-                    .enumerate()
-                    .map(|(i, f)| (i as f64, g(f)))
-                    .collect()
-            };
-            time_lines.push(Line {
-                label: label.clone(),
-                colour: o.scheme.colour(),
-                points: pts(&|f| f.seconds),
-                markers: false,
-            });
-            sample_lines.push(Line {
+            let line = |label, g: fn(&FrameStats) -> f64| Line {
                 label,
                 colour: o.scheme.colour(),
-                points: pts(&|f| f.ic_samples as f64),
+                points: (o.frames.iter().enumerate())
+                    .map(|(i, f)| (i as f64, g(f)))
+                    .collect(),
                 markers: false,
-            });
+            };
+            time_lines.push(line(label.clone(), |f| f.seconds));
+            sample_lines.push(line(label, |f| f.ic_samples as f64));
         }
         let note = if n > 1 {
             Some(format!(

@@ -281,21 +281,14 @@ impl Dynamic {
                 );
                 legend.push((label.clone(), colour));
                 let rows: Vec<&Row> = self.rows_of(scheme, mode).collect();
-                time.push(Line {
-                    label: label.clone(),
-                    colour,
-                    points: rows.iter().map(|r| (r.frame as f64, r.seconds)).collect(),
-                    markers: mode == Mode::Removal,
-                });
-                error.push(Line {
+                let line = |label, y: fn(&Row) -> f64| Line {
                     label,
                     colour,
-                    points: rows
-                        .iter()
-                        .map(|r| (r.frame as f64, 100.0 * r.error))
-                        .collect(),
+                    points: rows.iter().map(|r| (r.frame as f64, y(r))).collect(),
                     markers: mode == Mode::Removal,
-                });
+                };
+                time.push(line(label.clone(), |r| r.seconds));
+                error.push(line(label, |r| 100.0 * r.error));
             }
         }
         let base = Panel {

@@ -310,23 +310,20 @@ impl Table1 {
                     .iter()
                     .enumerate()
                     .map(|(i, t)| {
-                        let star = if self.machine.oversubscribed(*t) {
-                            "*"
-                        } else {
-                            ""
-                        };
-                        (xs[i], format!("{t}{star}"))
+                        (
+                            xs[i],
+                            format!("{t}{}", star(self.machine.oversubscribed(*t))),
+                        )
                     })
                     .collect(),
                 x_label: "THREADS".into(),
                 left_label: "LINES: TIME (S)".into(),
-                left_max: None,
                 lines,
                 right_label: Some("BARS: SPEED-UP VS TRA".into()),
                 bars,
                 shaded,
                 legend,
-                note: None,
+                ..Panel::default()
             });
         }
         let s = &self.config.settings;
