@@ -201,13 +201,7 @@ impl Animation {
         let t = Table::new()
             .md("scheme", |o: &Orbit| o.scheme.heading().to_owned())
             .left()
-            .md("threads", |o| {
-                format!(
-                    "{}{}",
-                    o.threads,
-                    star(self.machine.oversubscribed(o.threads))
-                )
-            })
+            .md("threads", |o| self.machine.count(o.threads))
             .md("frame 0 (s)", |o| {
                 format!("{:.3}", o.frames.first().map_or(f64::NAN, |f| f.seconds))
             })

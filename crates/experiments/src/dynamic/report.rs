@@ -143,10 +143,7 @@ impl Dynamic {
         let t = Table::new()
             .md("scheme", |s: &Summary| s.label.clone())
             .left()
-            .md("threads", |s| {
-                let t = last(s).threads;
-                format!("{t}{}", self.star(t))
-            })
+            .md("threads", |s| self.machine.count(last(s).threads))
             .md("mode", |s| s.mode.name().to_owned())
             .left()
             .md("seconds", |s| format!("{:.3}", s.mean(|r| r.seconds)))
@@ -272,11 +269,10 @@ impl Dynamic {
                     // Three lines a scheme are enough to read; its numbers are in the tables.
                     continue;
                 }
+                let threads = self.machine.count(self.config.threads_of(scheme));
                 let label = format!(
-                    "{} {}{} {}",
+                    "{} {threads} {}",
                     scheme.heading(),
-                    self.config.threads_of(scheme),
-                    self.star(self.config.threads_of(scheme)),
                     mode.name().to_uppercase()
                 );
                 legend.push((label.clone(), colour));

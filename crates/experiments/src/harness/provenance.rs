@@ -36,6 +36,14 @@ impl Machine {
         workers > self.cores
     }
 
+    /// `N` threads or processes as the tables print them: `N*` when oversubscribed.
+    pub fn count(&self, workers: usize) -> String {
+        format!(
+            "{workers}{}",
+            super::table::star(self.oversubscribed(workers))
+        )
+    }
+
     /// One line naming the cores and the oversubscribed thread counts among `threads`.
     pub fn banner(&self, threads: &[usize]) -> String {
         self.banner_with_ranks(threads, &[])

@@ -309,12 +309,7 @@ impl Table1 {
                 x_ticks: threads
                     .iter()
                     .enumerate()
-                    .map(|(i, t)| {
-                        (
-                            xs[i],
-                            format!("{t}{}", star(self.machine.oversubscribed(*t))),
-                        )
-                    })
+                    .map(|(i, &t)| (xs[i], self.machine.count(t)))
                     .collect(),
                 x_label: "THREADS".into(),
                 left_label: "LINES: TIME (S)".into(),
