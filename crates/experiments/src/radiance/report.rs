@@ -421,45 +421,37 @@ fn runs_table<'a>() -> Table<'a, Row<'a>> {
         .left()
         .csv("triangles", |(r, _)| r.triangles.to_string())
         .csv("source", |(r, _)| r.source.to_owned())
-        .col("renderer", "renderer", |(_, run)| run.renderer.to_owned())
+        .col("renderer", "renderer", |(_, x)| x.renderer.to_owned())
         .left()
-        .col("role", "role", |(_, run)| run.role.to_string())
+        .col("role", "role", |(_, x)| x.role.to_string())
         .left()
-        .csv("workers", |(_, run)| run.workers.to_string())
-        .col("a", "accuracy", |(_, run)| run.accuracy.to_string())
-        .col("N", "rays", |(_, run)| run.rays.to_string())
-        .col("L", "light_samples", |(_, run)| {
-            run.light_samples.to_string()
+        .csv("workers", |(_, x)| x.workers.to_string())
+        .col("a", "accuracy", |(_, x)| x.accuracy.to_string())
+        .col("N", "rays", |(_, x)| x.rays.to_string())
+        .col("L", "light_samples", |(_, x)| x.light_samples.to_string())
+        .col("r_min px", "min_radius_pixels", |(_, x)| {
+            x.min_radius_pixels.to_string()
         })
-        .col("r_min px", "min_radius_pixels", |(_, run)| {
-            run.min_radius_pixels.to_string()
+        .col("k", "smoothing", |(_, x)| x.smoothing.to_string())
+        .col("seconds", "seconds", |(_, x)| format!("{:.3}", x.seconds))
+        .csv_as(|(_, x)| format!("{:.4}", x.seconds))
+        .col("records", "records", |(_, x)| x.records.to_string())
+        .col("cache error", "cache_rel_rmse", |(_, x)| {
+            pct(x.cache_error.rel_rmse)
         })
-        .col("k", "smoothing", |(_, run)| run.smoothing.to_string())
-        .col("seconds", "seconds", |(_, run)| {
-            format!("{:.3}", run.seconds)
+        .csv_as(move |(_, x)| e6(x.cache_error.rel_rmse))
+        .csv("cache_mean_rel", move |(_, x)| e6(x.cache_error.mean_rel))
+        .col("image error", "image_rel_rmse", |(_, x)| {
+            pct(x.image_error.rel_rmse)
         })
-        .csv_as(|(_, run)| format!("{:.4}", run.seconds))
-        .col("records", "records", |(_, run)| run.records.to_string())
-        .col("cache error", "cache_rel_rmse", |(_, run)| {
-            pct(run.cache_error.rel_rmse)
+        .csv_as(move |(_, x)| e6(x.image_error.rel_rmse))
+        .csv("image_mean_rel", move |(_, x)| e6(x.image_error.mean_rel))
+        .csv("repeats", |(_, x)| x.repeats.to_string())
+        .csv("cache_rel_rmse_min", move |(_, x)| {
+            e6(x.cache_error_range.0)
         })
-        .csv_as(move |(_, run)| e6(run.cache_error.rel_rmse))
-        .csv("cache_mean_rel", move |(_, run)| {
-            e6(run.cache_error.mean_rel)
-        })
-        .col("image error", "image_rel_rmse", |(_, run)| {
-            pct(run.image_error.rel_rmse)
-        })
-        .csv_as(move |(_, run)| e6(run.image_error.rel_rmse))
-        .csv("image_mean_rel", move |(_, run)| {
-            e6(run.image_error.mean_rel)
-        })
-        .csv("repeats", |(_, run)| run.repeats.to_string())
-        .csv("cache_rel_rmse_min", move |(_, run)| {
-            e6(run.cache_error_range.0)
-        })
-        .csv("cache_rel_rmse_max", move |(_, run)| {
-            e6(run.cache_error_range.1)
+        .csv("cache_rel_rmse_max", move |(_, x)| {
+            e6(x.cache_error_range.1)
         })
 }
 
