@@ -464,6 +464,18 @@ pub struct RadianceArgs {
     pub repeats: Option<u32>,
 }
 
+/// Sets `field` to `value` when given, refusing a value below `min`.
+fn set_at_least(field: &mut u32, value: Option<u32>, min: u32, name: &str) -> Result<(), String> {
+    match value {
+        Some(v) if v < min => Err(format!("{name} must be at least {min}")),
+        Some(v) => {
+            *field = v;
+            Ok(())
+        }
+        None => Ok(()),
+    }
+}
+
 /// The comparison's configuration from its arguments, refusing what cannot run.
 fn radiance_config(a: &RadianceArgs) -> Result<RadianceConfig, String> {
     let names = wfic_render::scenes::NAMES;
@@ -489,31 +501,16 @@ fn radiance_config(a: &RadianceArgs) -> Result<RadianceConfig, String> {
     if a.size.width.is_some() || a.size.height.is_some() {
         config.size = a.size.get(config.size.0)?;
     }
-    if let Some(n) = a.rays_per_record {
-        if n < 16 {
-            return Err("--rays-per-record must be at least 16".to_owned());
-        }
-        config.rays = n;
-    }
+    set_at_least(&mut config.rays, a.rays_per_record, 16, "--rays-per-record")?;
     if let Some(acc) = a.accuracy {
         if !(acc > 0.0 && acc <= 2.0) {
             return Err(format!("--accuracy {acc} is not in (0, 2]"));
         }
         config.accuracy = acc;
     }
-    if let Some(r) = a.resolution {
-        if r == 0 {
-            return Err("--resolution must be at least 1".to_owned());
-        }
-        config.resolution = r;
-    }
+    set_at_least(&mut config.resolution, a.resolution, 1, "--resolution")?;
     config.keep_work = a.keep_work;
-    if let Some(r) = a.repeats {
-        if r == 0 {
-            return Err("--repeats must be at least 1".to_owned());
-        }
-        config.repeats = r;
-    }
+    set_at_least(&mut config.repeats, a.repeats, 1, "--repeats")?;
     Ok(config)
 }
 
