@@ -58,7 +58,12 @@ pub struct SizeArgs {
 impl SizeArgs {
     /// The size, `width` standing in for a missing width; refused when empty.
     pub fn get(&self, width: u32) -> Result<(u32, u32), String> {
-        size(self.width.unwrap_or(width), self.height)
+        let width = self.width.unwrap_or(width);
+        let h = self.height.unwrap_or(width);
+        if width == 0 || h == 0 {
+            return Err(format!("image size {width}x{h} is empty"));
+        }
+        Ok((width, h))
     }
 }
 
@@ -234,14 +239,6 @@ pub struct AnimationArgs {
     /// Output.
     #[command(flatten)]
     pub output: OutputArgs,
-}
-
-fn size(width: u32, height: Option<u32>) -> Result<(u32, u32), String> {
-    let h = height.unwrap_or(width);
-    if width == 0 || h == 0 {
-        return Err(format!("image size {width}x{h} is empty"));
-    }
-    Ok((width, h))
 }
 
 /// `value` when given, else `quick` or `full` as `--quick` says.
