@@ -198,6 +198,9 @@ impl Animation {
         let s = &self.config.settings;
         let rest = |o: &Orbit| -> Vec<FrameStats> { o.frames.iter().skip(1).cloned().collect() };
         let sum = |o: &Orbit, f: fn(&FrameStats) -> f64| o.frames.iter().map(f).sum::<f64>();
+        let count = |o: &Orbit, skip, f: fn(&FrameStats) -> u64| {
+            o.frames.iter().skip(skip).map(f).sum::<u64>().to_string()
+        };
         let t = Table::new()
             .md("scheme", |o: &Orbit| o.scheme.heading().to_owned())
             .left()
@@ -218,13 +221,7 @@ impl Animation {
             .md("frame 0 samples", |o| {
                 o.frames.first().map_or(0, |f| f.ic_samples).to_string()
             })
-            .md("frames 1.. samples", |o| {
-                rest(o)
-                    .iter()
-                    .map(|f| f.ic_samples)
-                    .sum::<u64>()
-                    .to_string()
-            })
+            .md("frames 1.. samples", |o| count(o, 1, |f| f.ic_samples))
             .md("total samples", |o| o.total_samples().to_string())
             .md("lock wait (s)", |o| {
                 format!("{:.3}", sum(o, |f| f.lock_wait_seconds))
@@ -232,13 +229,7 @@ impl Animation {
             .md("merge (s)", |o| {
                 format!("{:.4}", sum(o, |f| f.merge_seconds))
             })
-            .md("discarded", |o| {
-                o.frames
-                    .iter()
-                    .map(|f| f.discarded)
-                    .sum::<u64>()
-                    .to_string()
-            });
+            .md("discarded", |o| count(o, 0, |f| f.discarded));
         format!(
             "- image {}x{}, accuracy {}, {} rays per record, {} light samples per pixel\n\n{}\n\
              `*`: oversubscribed (more threads than the {} cores).\n",

@@ -214,6 +214,7 @@ impl Distributed {
         };
         let later =
             |a: &Animation, f: fn(&AnimFrame) -> f64| stats::mean(a.frames[1..].iter().map(f));
+        let total = |a: &Animation, f: fn(&AnimFrame) -> u64| a.frames.iter().map(f).sum::<u64>();
         let t = Table::new()
             .md("layout", |a: &Animation| a.layout.label.to_owned())
             .left()
@@ -228,19 +229,11 @@ impl Distributed {
             .md("records, later (mean)", |a| {
                 format!("{:.0}", later(a, |f| f.records as f64))
             })
-            .md("records, all", |a| {
-                a.frames.iter().map(|f| f.records).sum::<u64>().to_string()
-            })
+            .md("records, all", |a| total(a, |f| f.records).to_string())
             .md("duplicates, all", |a| {
-                a.frames
-                    .iter()
-                    .map(|f| f.duplicates)
-                    .sum::<u64>()
-                    .to_string()
+                total(a, |f| f.duplicates).to_string()
             })
-            .md("bytes sent, all", |a| {
-                kib(a.frames.iter().map(|f| f.bytes).sum())
-            })
+            .md("bytes sent, all", |a| kib(total(a, |f| f.bytes)))
             .md("last frame's error", |a| pct(a.last_error.rel_rmse));
         let _ = write!(
             md,
