@@ -52,33 +52,23 @@ impl Machine {
     /// [`Self::banner`] with MPI layouts too, each `(ranks, threads per rank)`: a layout is
     /// oversubscribed when its ranks' threads together are more than the cores.
     pub fn banner_with_ranks(&self, threads: &[usize], ranks: &[(usize, usize)]) -> String {
-        let mut over: Vec<usize> = threads
-            .iter()
-            .copied()
-            .filter(|&t| self.oversubscribed(t))
-            .collect();
+        let mut over: Vec<usize> = threads.to_vec();
+        over.retain(|&t| self.oversubscribed(t));
         over.sort_unstable();
         over.dedup();
-        let mut parts = Vec::new();
+        let list: Vec<String> = over.iter().map(usize::to_string).collect();
+        let mut parts: Vec<String> = Vec::new();
         if !over.is_empty() {
-            let list: Vec<String> = over.iter().map(usize::to_string).collect();
             parts.push(format!("{} threads", list.join(", ")));
         }
-        let mut layouts: Vec<(usize, usize)> = ranks
-            .iter()
-            .copied()
-            .filter(|&(r, t)| self.oversubscribed(r * t))
-            .collect();
+        let mut layouts = ranks.to_vec();
+        layouts.retain(|&(r, t)| self.oversubscribed(r * t));
         layouts.dedup();
         for (r, t) in layouts {
             let s = if t == 1 { "" } else { "s" };
             parts.push(format!("{r} ranks x {t} thread{s}"));
         }
-        let what = if ranks.is_empty() {
-            "thread count"
-        } else {
-            "thread or rank count"
-        };
+        let what = ["thread count", "thread or rank count"][usize::from(!ranks.is_empty())];
         let tail = if parts.is_empty() {
             format!("no {what} is oversubscribed")
         } else {
