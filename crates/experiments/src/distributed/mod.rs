@@ -705,6 +705,15 @@ mod tests {
             "{md}"
         );
         assert!(md.contains("| 8 | 0.700 | 100 | 3 | 5 |"), "{md}");
+        // Four ranks on two cores are marked where they are reported, two are not.
+        assert!(
+            md.contains("| 4 ranks x 1 thread, shared (oversubscribed) | 0.900"),
+            "{md}"
+        );
+        assert!(
+            !md.contains("2 ranks x 1 thread, shared (oversubscribed)"),
+            "{md}"
+        );
         let (insert, wire) = d.calibration();
         assert!((insert - 0.002 / 40.0).abs() < 1e-12 && wire > 0.0);
     }

@@ -107,6 +107,18 @@ impl Distributed {
         )
     }
 
+    /// A layout's name, marked when its processes times threads exceed the machine's cores
+    /// (computed, as the provenance header's list is).
+    fn layout_label(&self, layout: &Layout) -> String {
+        let workers = layout.ranks * layout.threads;
+        let mark = if self.machine.oversubscribed(workers) {
+            " (oversubscribed)"
+        } else {
+            ""
+        };
+        format!("{}{mark}", layout.label)
+    }
+
     /// The main layouts against one rank.
     fn layouts_markdown(&self) -> String {
         let one = self.job(ONE);
@@ -116,7 +128,7 @@ impl Distributed {
             })
         };
         let t = Table::new()
-            .md("layout", |j: &Job| j.layout.label.to_owned())
+            .md("layout", |j: &Job| self.layout_label(&j.layout))
             .left()
             .md("seconds (range)", |j| {
                 format!("{:.3} ({:.3}-{:.3})", j.seconds, j.range.0, j.range.1)
@@ -216,7 +228,7 @@ impl Distributed {
             |a: &Animation, f: fn(&AnimFrame) -> f64| stats::mean(a.frames[1..].iter().map(f));
         let total = |a: &Animation, f: fn(&AnimFrame) -> u64| a.frames.iter().map(f).sum::<u64>();
         let t = Table::new()
-            .md("layout", |a: &Animation| a.layout.label.to_owned())
+            .md("layout", |a: &Animation| self.layout_label(&a.layout))
             .left()
             .md("first frame (s)", |a| format!("{:.3}", a.frames[0].seconds))
             .md("later frames, mean (s)", |a| {
