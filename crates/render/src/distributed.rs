@@ -50,6 +50,10 @@ use wfic::cache::{CacheConfig, CacheHandle, CasFailure, Inserted, IrradianceCach
 use wfic::ic::{self, InsertError, Interpolated, Record, Selection, WorkerId};
 use wfic::sync::Mutex;
 
+/// How long a rank's main thread waits for a worker's event before it checks whether a round
+/// is due again.
+const RECHECK: Duration = Duration::from_micros(250);
+
 /// How records cross between ranks.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Exchange {
@@ -733,10 +737,15 @@ impl<'a> Rounds<'a> {
             let Some(left) = deadline.checked_duration_since(Instant::now()) else {
                 return;
             };
-            match self.events.recv_timeout(left) {
+            // Woken by the workers' events, and every RECHECK in any case: on a loaded machine
+            // an event can wait for this thread longer than the conditions above take to hold,
+            // and a round that starts late lets the other ranks render what they would have
+            // received (the batch sweep's rounds and duplicates).
+            match self.events.recv_timeout(left.min(RECHECK)) {
                 Ok(event) => self.note(event),
-                // Timeout: the round is due. Disconnected: every worker has returned.
-                Err(_) => return,
+                Err(mpsc::RecvTimeoutError::Timeout) => {}
+                // Every worker has returned.
+                Err(mpsc::RecvTimeoutError::Disconnected) => return,
             }
         }
     }
