@@ -533,11 +533,15 @@ fn the_cli_writes_every_output_and_refuses_bad_input() {
     // ... and reads back through the type it was written through.
     let stats = wfic_render::stats::StatsJson::from_json(&json).unwrap();
     assert_eq!(
-        (stats.width, stats.height, stats.scheme.as_str()),
+        (
+            stats.frame.width,
+            stats.frame.height,
+            stats.frame.scheme.as_str()
+        ),
         (24, 20, "wf")
     );
     assert!(
-        stats.ic_samples > 0 && stats.lookups >= stats.ic_samples,
+        stats.frame.ic_samples > 0 && stats.frame.lookups >= stats.frame.ic_samples,
         "{stats:?}"
     );
     let pfm = Image::read_pfm(&dir.join("c.pfm")).unwrap();

@@ -91,14 +91,17 @@ pub struct IrradianceSample {
     pub grad_r: [Vec3; 3],
 }
 
-/// Counts rays by kind.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+/// Counts rays by kind (in JSON as `primary_rays`, `shadow_rays` and `hemisphere_rays`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct RayCounts {
     /// Camera rays.
+    #[serde(rename = "primary_rays")]
     pub primary: u64,
     /// Shadow rays (direct light at primary hits and at hemisphere hits).
+    #[serde(rename = "shadow_rays")]
     pub shadow: u64,
     /// Hemisphere rays of irradiance estimates.
+    #[serde(rename = "hemisphere_rays")]
     pub hemisphere: u64,
 }
 

@@ -30,8 +30,9 @@ impl SceneSummary {
     }
 }
 
-/// A frame's statistics (the paper's Table 1 columns and more).
-#[derive(Clone, Debug, Default, PartialEq)]
+/// A frame's statistics (the paper's Table 1 columns and more), written and read back as the
+/// body of a [`StatsJson`].
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct FrameStats {
     /// The scheme (`tra`, `lck`, `lck-rw`, `lw`, `wf`, `wf-discard`, or `none`).
     pub scheme: String,
@@ -69,6 +70,7 @@ pub struct FrameStats {
     /// Records refused by the cache (bad input; expected 0).
     pub rejected: u64,
     /// Rays traced, by kind.
+    #[serde(flatten)]
     pub rays: RayCounts,
     /// Time spent in hemisphere sampling, summed over workers (for rays per second per core).
     pub hemisphere_seconds: f64,
@@ -151,28 +153,8 @@ impl FrameStats {
             scene: scene.to_owned(),
             triangles: source.triangles,
             scene_source: source.source.clone(),
-            scheme: self.scheme.clone(),
-            threads: self.threads,
-            width: self.width,
-            height: self.height,
-            seconds: self.seconds,
-            ic_samples: self.ic_samples,
-            lookups: self.lookups,
-            hits: self.hits,
-            shared_hits: self.shared_hits,
-            sharing: self.sharing,
-            lock_wait_seconds: self.lock_wait_seconds,
-            merge_seconds: self.merge_seconds,
-            discarded: self.discarded,
-            stored: self.stored,
-            rejected: self.rejected,
-            cache_records: self.cache_records,
-            primary_rays: self.rays.primary,
-            shadow_rays: self.rays.shadow,
-            hemisphere_rays: self.rays.hemisphere,
-            hemisphere_seconds: self.hemisphere_seconds,
+            frame: self.clone(),
             hemisphere_rays_per_second: self.hemisphere_rays_per_second(),
-            worker_seconds: self.worker_seconds.clone(),
             idle_share: self.idle_share(),
         }
     }
@@ -185,9 +167,8 @@ impl FrameStats {
 }
 
 /// A frame's statistics as `wfic render --stats` writes them and as readers parse them back:
-/// the scene, then [`FrameStats`]' fields, the ray counts as `primary_rays`, `shadow_rays` and
-/// `hemisphere_rays`, and the derived `hemisphere_rays_per_second` and `idle_share`.
-/// ([`FrameStats::removed`] is not written.)
+/// the scene, then [`FrameStats`]' own fields (its ray counts as `primary_rays`, `shadow_rays`
+/// and `hemisphere_rays`), then the two derived figures.
 #[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct StatsJson {
     /// The scene's name.
@@ -196,50 +177,11 @@ pub struct StatsJson {
     pub triangles: usize,
     /// Where it comes from ([`SceneSummary::source`]).
     pub scene_source: String,
-    /// [`FrameStats::scheme`].
-    pub scheme: String,
-    /// [`FrameStats::threads`].
-    pub threads: usize,
-    /// [`FrameStats::width`].
-    pub width: u32,
-    /// [`FrameStats::height`].
-    pub height: u32,
-    /// [`FrameStats::seconds`].
-    pub seconds: f64,
-    /// [`FrameStats::ic_samples`].
-    pub ic_samples: u64,
-    /// [`FrameStats::lookups`].
-    pub lookups: u64,
-    /// [`FrameStats::hits`].
-    pub hits: u64,
-    /// [`FrameStats::shared_hits`].
-    pub shared_hits: u64,
-    /// [`FrameStats::sharing`].
-    pub sharing: f64,
-    /// [`FrameStats::lock_wait_seconds`].
-    pub lock_wait_seconds: f64,
-    /// [`FrameStats::merge_seconds`].
-    pub merge_seconds: f64,
-    /// [`FrameStats::discarded`].
-    pub discarded: u64,
-    /// [`FrameStats::stored`].
-    pub stored: u64,
-    /// [`FrameStats::rejected`].
-    pub rejected: u64,
-    /// [`FrameStats::cache_records`].
-    pub cache_records: usize,
-    /// Primary rays ([`RayCounts::primary`]).
-    pub primary_rays: u64,
-    /// Shadow rays ([`RayCounts::shadow`]).
-    pub shadow_rays: u64,
-    /// Hemisphere rays ([`RayCounts::hemisphere`]).
-    pub hemisphere_rays: u64,
-    /// [`FrameStats::hemisphere_seconds`].
-    pub hemisphere_seconds: f64,
+    /// The frame's statistics, their fields at the object's top level.
+    #[serde(flatten)]
+    pub frame: FrameStats,
     /// [`FrameStats::hemisphere_rays_per_second`].
     pub hemisphere_rays_per_second: f64,
-    /// [`FrameStats::worker_seconds`].
-    pub worker_seconds: Vec<f64>,
     /// [`FrameStats::idle_share`].
     pub idle_share: f64,
 }
@@ -450,7 +392,8 @@ mod tests {
         assert_eq!(json["worker_seconds"], serde_json::json!([0.5, 0.25]));
         // 0.75 s of the 2 x 0.5 s worker-time shaded.
         assert_eq!(json["idle_share"], 0.25);
-        assert_eq!(json.as_object().unwrap().len(), 26);
+        assert_eq!(json["removed"], 0);
+        assert_eq!(json.as_object().unwrap().len(), 27);
     }
 
     fn rank(rank: u32) -> RankStats {
