@@ -140,7 +140,7 @@ fn err<E: std::fmt::Display>(e: E) -> String {
 }
 
 /// About `target` round tick values from 0 to at least `max`: `(step, top)`.
-pub fn nice_ticks(max: f64, target: u32) -> (f64, f64) {
+fn nice_ticks(max: f64, target: u32) -> (f64, f64) {
     let max = if max.is_finite() && max > 0.0 {
         max
     } else {
@@ -157,7 +157,7 @@ pub fn nice_ticks(max: f64, target: u32) -> (f64, f64) {
 }
 
 /// A tick label: as few decimals as the step needs.
-pub fn tick_label(v: f64, step: f64) -> String {
+fn tick_label(v: f64, step: f64) -> String {
     let decimals = (0..6)
         .find(|&d| {
             let scaled = step * 10f64.powi(d);

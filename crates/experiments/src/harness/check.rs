@@ -7,7 +7,8 @@ use super::table::Table;
 pub enum Verdict {
     /// It holds.
     Yes,
-    /// A timing comparison whose paired-ratio interval contains 1: the runs cannot tell apart.
+    /// A timing comparison whose paired-ratio interval contains 1: the runs cannot tell the two
+    /// apart.
     Tie,
     /// It does not hold (for a timing comparison: the whole interval is on the wrong side).
     No,

@@ -21,11 +21,8 @@ pub fn repeat<T, E>(n: usize, f: impl FnMut(usize) -> Result<T, E>) -> Result<Ve
 /// captured) and returns its output and wall seconds. `what` names it in the errors: one that
 /// cannot start, one that exits unsuccessfully (with its standard error).
 pub fn time_command(cmd: &mut Command, what: &str) -> Result<(Output, f64), String> {
-    let start = Instant::now();
-    let out = cmd
-        .output()
-        .map_err(|e| format!("{what}: cannot start: {e}"))?;
-    let seconds = start.elapsed().as_secs_f64();
+    let (out, seconds) = timed(|| cmd.output());
+    let out = out.map_err(|e| format!("{what}: cannot start: {e}"))?;
     if !out.status.success() {
         return Err(format!(
             "{what} failed ({}): {}",
