@@ -1,8 +1,6 @@
-//! Line-and-bar charts drawn with `plotters`: enough for Figure 1 (time as lines on the left axis,
-//! speed-up as bars on the right axis, oversubscribed thread counts shaded) and Figures 2–3 (time
-//! and new samples per frame). PNG through plotters' bitmap backend (encoded by `image`), SVG
-//! through its SVG backend. Text is Noto Sans compiled into the binary (`ttf-noto-sans`) and
-//! rasterised by ab_glyph, so the plots need no system font and no fontconfig.
+//! Line-and-bar charts drawn with `plotters` into PNG and SVG: lines on a left axis, bars on an
+//! optional right axis, shaded x ranges. Text is Noto Sans compiled into the binary
+//! (`ttf-noto-sans`), so the plots need no system font and no fontconfig.
 
 use image::RgbImage;
 use plotters::coord::ranged1d::{DefaultFormatting, KeyPointHint, Ranged};
@@ -14,7 +12,6 @@ use plotters::prelude::{
 };
 use plotters::style::register_font;
 use std::ops::Range;
-use std::path::Path;
 use std::sync::OnceLock;
 
 /// An RGB colour (a scheme's is [`wfic::cache::Scheme::colour`]).
@@ -138,18 +135,12 @@ fn text(size: f64, colour: Colour) -> TextStyle<'static> {
     (FONT, size).into_font().color(&rgb(colour))
 }
 
-fn bold(size: f64, colour: Colour) -> TextStyle<'static> {
-    (FONT, size, FontStyle::Bold)
-        .into_font()
-        .color(&rgb(colour))
-}
-
 fn err<E: std::fmt::Display>(e: E) -> String {
     format!("plot: {e}")
 }
 
 /// About `target` round tick values from 0 to at least `max`: `(step, top)`.
-pub fn nice_ticks(max: f64, target: u32) -> (f64, f64) {
+fn nice_ticks(max: f64, target: u32) -> (f64, f64) {
     let max = if max.is_finite() && max > 0.0 {
         max
     } else {
@@ -166,7 +157,7 @@ pub fn nice_ticks(max: f64, target: u32) -> (f64, f64) {
 }
 
 /// A tick label: as few decimals as the step needs.
-pub fn tick_label(v: f64, step: f64) -> String {
+fn tick_label(v: f64, step: f64) -> String {
     let decimals = (0..6)
         .find(|&d| {
             let scaled = step * 10f64.powi(d);
@@ -176,14 +167,6 @@ pub fn tick_label(v: f64, step: f64) -> String {
     format!("{v:.decimals$}")
 }
 
-/// The ticks `0, step, ..` up to `top`.
-fn ticks_to(step: f64, top: f64) -> Vec<f64> {
-    (0..)
-        .map(|i| f64::from(i) * step)
-        .take_while(|v| *v <= top + step * 1e-9)
-        .collect()
-}
-
 fn lighter(c: Colour) -> Colour {
     c.map(|v| (u16::from(v) + 2 * 255).div_euclid(3) as u8)
 }
@@ -191,40 +174,35 @@ fn lighter(c: Colour) -> Colour {
 /// The pieces of the polyline `points` inside `lo <= y <= hi`: a segment leaving the band is cut
 /// where it crosses the edge, so a clipped value shows as a line running off the chart.
 fn clip_polyline(points: &[(f64, f64)], lo: f64, hi: f64) -> Vec<Vec<(f64, f64)>> {
-    let inside = |p: (f64, f64)| p.1 >= lo && p.1 <= hi;
-    let mut pieces: Vec<Vec<(f64, f64)>> = Vec::new();
-    let mut current: Vec<(f64, f64)> = Vec::new();
-    if let Some(&p) = points.first() {
-        if inside(p) {
-            current.push(p);
-        }
-    }
+    let band = lo..=hi;
+    let mut pieces = Vec::new();
+    let mut current: Vec<(f64, f64)> = points
+        .iter()
+        .take(1)
+        .filter(|p| band.contains(&p.1))
+        .copied()
+        .collect();
     for pair in points.windows(2) {
         let ((xa, ya), (xb, yb)) = (pair[0], pair[1]);
         // The part of the segment inside the band, as parameters t0 <= t1 in [0, 1].
-        let (mut t0, mut t1) = (0.0f64, 1.0f64);
         let dy = yb - ya;
-        if dy == 0.0 {
-            if ya < lo || ya > hi {
-                t1 = -1.0;
-            }
-        } else {
+        let (t0, t1) = if dy != 0.0 {
             let (ta, tb) = ((lo - ya) / dy, (hi - ya) / dy);
-            t0 = t0.max(ta.min(tb));
-            t1 = t1.min(ta.max(tb));
-        }
-        if t0 > t1 {
-            if !current.is_empty() {
-                pieces.push(std::mem::take(&mut current));
+            (0.0f64.max(ta.min(tb)), 1.0f64.min(ta.max(tb)))
+        } else if band.contains(&ya) {
+            (0.0, 1.0)
+        } else {
+            (1.0, 0.0)
+        };
+        if t0 <= t1 {
+            let at = |t: f64| (xa + t * (xb - xa), ya + t * dy);
+            if current.is_empty() {
+                current.push(at(t0));
             }
-            continue;
+            current.push(at(t1));
         }
-        let at = |t: f64| (xa + t * (xb - xa), ya + t * dy);
-        if current.is_empty() {
-            current.push(at(t0));
-        }
-        current.push(at(t1));
-        if t1 < 1.0 {
+        // The piece ends where the line leaves the band.
+        if (t0 > t1 || t1 < 1.0) && !current.is_empty() {
             pieces.push(std::mem::take(&mut current));
         }
     }
@@ -234,8 +212,9 @@ fn clip_polyline(points: &[(f64, f64)], lo: f64, hi: f64) -> Vec<Vec<(f64, f64)>
     pieces
 }
 
-/// A linear axis from `lo` to `hi` with ticks (and grid lines) exactly at `ticks`. (plotters'
-/// own `with_key_points` wrapper loses the `f64` label formatter, so the axes carry their own.)
+/// A linear axis from `lo` to `hi` (`lo < hi`) with ticks (and grid lines) exactly at `ticks`.
+/// (plotters' `with_key_points` over its own `f64` axis would do, but maps to pixels by floor,
+/// not by rounding as these figures always have.)
 #[derive(Clone, Debug)]
 struct Ticked {
     lo: f64,
@@ -244,9 +223,14 @@ struct Ticked {
 }
 
 impl Ticked {
-    fn new(lo: f64, hi: f64, ticks: Vec<f64>) -> Self {
-        let hi = if hi > lo { hi } else { lo + 1.0 };
-        Self { lo, hi, ticks }
+    /// From 0 to `top`, a tick every `step`.
+    fn from_zero(step: f64, top: f64) -> Self {
+        let ticks = (0..).map(|i| f64::from(i) * step);
+        Self {
+            lo: 0.0,
+            hi: top,
+            ticks: ticks.take_while(|v| *v <= top + step * 1e-9).collect(),
+        }
     }
 }
 
@@ -305,7 +289,8 @@ impl Panel {
         let (w, _) = area.dim_in_pixel();
         let right_edge = w as i32 - 12;
         let mut y = 10;
-        area.draw_text(&self.title, &bold(TITLE_SIZE, BLACK), (12, y))
+        let title = (FONT, TITLE_SIZE, FontStyle::Bold).into_font();
+        area.draw_text(&self.title, &title.color(&rgb(BLACK)), (12, y))
             .map_err(err)?;
         y += 30;
         if let Some(note) = &self.note {
@@ -342,7 +327,11 @@ impl Panel {
         let (x0, x1) = self.x_range;
         let x1 = if x1 > x0 { x1 } else { x0 + 1.0 };
         let ticks = self.ticks();
-        let tick_xs: Vec<f64> = ticks.iter().map(|t| t.0).collect();
+        let x_axis = Ticked {
+            lo: x0,
+            hi: x1,
+            ticks: ticks.iter().map(|t| t.0).collect(),
+        };
 
         let data_max = self
             .lines
@@ -369,15 +358,9 @@ impl Panel {
         let bmax = self.bars.iter().map(|b| b.value).fold(0.0f64, f64::max);
         let (rstep, rmax) = nice_ticks(bmax, 5);
         let mut chart = builder
-            .build_cartesian_2d(
-                Ticked::new(x0, x1, tick_xs.clone()),
-                Ticked::new(0.0, ymax, ticks_to(step, ymax)),
-            )
+            .build_cartesian_2d(x_axis.clone(), Ticked::from_zero(step, ymax))
             .map_err(err)?
-            .set_secondary_coord(
-                Ticked::new(x0, x1, tick_xs),
-                Ticked::new(0.0, rmax, ticks_to(rstep, rmax)),
-            );
+            .set_secondary_coord(x_axis, Ticked::from_zero(rstep, rmax));
 
         chart
             .draw_series(self.shaded.iter().map(|(a, b, _)| {
@@ -487,15 +470,23 @@ impl Figure {
         self.header.len() as u32 * HEADER_LINE + 16
     }
 
+    /// Rows and columns of panels.
+    fn grid(&self) -> (usize, usize) {
+        let cols = self.columns.max(1);
+        (self.panels.len().div_ceil(cols).max(1), cols)
+    }
+
     /// The figure's size in pixels.
     pub fn size(&self) -> (u32, u32) {
-        let cols = self.columns.max(1);
-        let rows = self.panels.len().div_ceil(cols).max(1);
+        let (rows, cols) = self.grid();
         let (pw, ph) = self.panel_size;
         (pw * cols as u32, self.header_height() + ph * rows as u32)
     }
 
-    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<(), String> {
+    /// Draws the figure on `backend`, which must be [`Self::size`] large.
+    fn paint<DB: DrawingBackend>(&self, backend: DB) -> Result<(), String> {
+        register_fonts()?;
+        let root = backend.into_drawing_area();
         root.fill(&rgb(WHITE)).map_err(err)?;
         for (i, line) in self.header.iter().enumerate() {
             let colour = if i == 0 { BLACK } else { HEADER_COLOUR };
@@ -503,50 +494,26 @@ impl Figure {
             root.draw_text(line, &text(HEADER_SIZE, colour), (12, y))
                 .map_err(err)?;
         }
-        let cols = self.columns.max(1);
-        let rows = self.panels.len().div_ceil(cols).max(1);
         let (_, body) = root.split_vertically(self.header_height());
-        for (panel, cell) in self.panels.iter().zip(body.split_evenly((rows, cols))) {
+        for (panel, cell) in self.panels.iter().zip(body.split_evenly(self.grid())) {
             panel.draw(&cell)?;
         }
-        Ok(())
+        root.present().map_err(err)
     }
 
     /// Renders the figure into an RGB image.
     pub fn render(&self) -> Result<RgbImage, String> {
-        register_fonts()?;
         let (w, h) = self.size();
         let mut buf = vec![0u8; w as usize * h as usize * 3];
-        {
-            let root = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
-            self.draw(&root)?;
-            root.present().map_err(err)?;
-        }
+        self.paint(BitMapBackend::with_buffer(&mut buf, (w, h)))?;
         RgbImage::from_raw(w, h, buf).ok_or_else(|| "plot: buffer of the wrong size".to_owned())
     }
 
     /// Renders the figure as an SVG document (text as text, in the viewer's sans-serif).
     pub fn render_svg(&self) -> Result<String, String> {
-        register_fonts()?;
         let mut svg = String::new();
-        {
-            let root = SVGBackend::with_string(&mut svg, self.size()).into_drawing_area();
-            self.draw(&root)?;
-            root.present().map_err(err)?;
-        }
+        self.paint(SVGBackend::with_string(&mut svg, self.size()))?;
         Ok(svg)
-    }
-
-    /// Renders the figure and writes it as a PNG.
-    pub fn write_png(&self, path: &Path) -> Result<(), String> {
-        self.render()?
-            .save(path)
-            .map_err(|e| format!("{}: {e}", path.display()))
-    }
-
-    /// Renders the figure and writes it as an SVG.
-    pub fn write_svg(&self, path: &Path) -> Result<(), String> {
-        std::fs::write(path, self.render_svg()?).map_err(|e| format!("{}: {e}", path.display()))
     }
 }
 

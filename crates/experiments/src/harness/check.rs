@@ -7,13 +7,12 @@ use super::table::Table;
 pub enum Verdict {
     /// It holds.
     Yes,
-    /// A timing comparison whose median is on the wrong side of 1 by less than the noise: the
-    /// confidence interval of the paired ratio contains 1, so the runs cannot tell the two apart.
+    /// A timing comparison whose paired-ratio interval contains 1: the runs cannot tell the two
+    /// apart.
     Tie,
     /// It does not hold (for a timing comparison: the whole interval is on the wrong side).
     No,
-    /// The goal is missed, but by no more than the machine control accounts for: the measured
-    /// value's interval reaches what the machine allows
+    /// The goal is missed, but the interval reaches what the machine allows
     /// ([`super::control::SpeedupAnalysis::ceiling`]).
     Machine,
 }

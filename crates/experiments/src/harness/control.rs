@@ -1,10 +1,6 @@
-//! The machine control: what a speed-up is set against so that a shortfall the machine itself
-//! causes is told apart from the cache's. Two TRA frames rendered at the same time, each on a
-//! thread and a cache of its own, give the machine's own two-thread throughput on the scene's
-//! work with nothing shared at all (frequency, the shared last-level cache, memory bandwidth,
-//! the hypervisor): `2 × TRA / twins` is the speed-up perfectly divided, unshared work reaches
-//! here. WF on one thread, rendered beside them, is what the concurrent structure costs where
-//! nobody shares it.
+//! The machine control a speed-up is set against, so that a shortfall the machine causes is told
+//! apart from the cache's: two TRA frames rendered at once, each on a thread and a cache of its
+//! own, and WF on one thread. See `docs/experiments.md#table-1-and-figure-1`.
 
 use super::check::Verdict;
 use super::measure::timed;
@@ -30,32 +26,9 @@ pub struct Controls {
     pub tra_twins: Vec<f64>,
 }
 
-/// Renders two TRA frames at once, each on a thread and a cache of its own; wall seconds.
-pub fn tra_twins(
-    scene: &Scene,
-    camera: &Camera,
-    settings: &RenderSettings,
-    cache_config: CacheConfig,
-) -> f64 {
-    timed(|| {
-        std::thread::scope(|s| {
-            let twins = [0, 1].map(|_| {
-                s.spawn(|| {
-                    render_with_scheme(Scheme::Tra, scene, camera, settings, cache_config, 1)
-                })
-            });
-            for t in twins {
-                t.join().expect("a TRA twin frame");
-            }
-        })
-    })
-    .1
-}
-
 impl Controls {
     /// Renders one round's controls (`round` of `rounds`, 0-based), telling `progress` before
     /// each frame.
-    #[allow(clippy::too_many_arguments)]
     pub fn render_round(
         &mut self,
         scene: &Scene,
@@ -76,14 +49,23 @@ impl Controls {
             "{name} 2 x TRA 1t at once (control) round {}/{rounds}",
             round + 1
         ));
-        self.tra_twins
-            .push(tra_twins(scene, camera, settings, cache_config));
+        // Two TRA frames at once, each on a thread and a cache of its own.
+        let render_tra =
+            || render_with_scheme(Scheme::Tra, scene, camera, settings, cache_config, 1);
+        let (_, seconds) = timed(|| {
+            std::thread::scope(|s| {
+                let twins = [0, 1].map(|_| s.spawn(render_tra));
+                for t in twins {
+                    t.join().expect("a TRA twin frame");
+                }
+            })
+        });
+        self.tra_twins.push(seconds);
     }
 }
 
-/// WF's speed-up over TRA at two threads set against its [`Controls`], one scene's; every
-/// ratio is taken per round (the frames of a round are seconds apart), then the median and its
-/// interval ([`paired_ratio`]).
+/// One scene's speed-up of WF over TRA at two threads set against its [`Controls`], every ratio
+/// taken per round, then its median and interval ([`paired_ratio`]).
 #[derive(Clone, Debug, PartialEq)]
 pub struct SpeedupAnalysis {
     /// Scene.
@@ -122,15 +104,13 @@ impl SpeedupAnalysis {
         })
     }
 
-    /// The speed-up the machine and the frame's idle time leave: `machine × (1 - idle)`. What
-    /// the measured speed-up falls short of it is the cache's (and the noise's).
+    /// The speed-up the machine and the frame's idle time leave: `machine × (1 - idle)`.
     pub fn ceiling(&self) -> f64 {
         self.machine.median * (1.0 - self.idle)
     }
 
-    /// [`Verdict::Yes`] at [`SPEEDUP_GOAL`] or above; [`Verdict::Machine`] below it when the
-    /// speed-up's interval reaches the [`Self::ceiling`] (the shortfall is the machine's and the
-    /// frame's, not the cache's); [`Verdict::No`] otherwise.
+    /// [`Verdict::Yes`] at [`SPEEDUP_GOAL`] or above; else [`Verdict::Machine`] when the
+    /// speed-up's interval reaches the [`Self::ceiling`], [`Verdict::No`] when not.
     pub fn verdict(&self) -> Verdict {
         if self.speedup.median >= SPEEDUP_GOAL {
             Verdict::Yes

@@ -21,11 +21,8 @@ pub fn repeat<T, E>(n: usize, f: impl FnMut(usize) -> Result<T, E>) -> Result<Ve
 /// captured) and returns its output and wall seconds. `what` names it in the errors: one that
 /// cannot start, one that exits unsuccessfully (with its standard error).
 pub fn time_command(cmd: &mut Command, what: &str) -> Result<(Output, f64), String> {
-    let start = Instant::now();
-    let out = cmd
-        .output()
-        .map_err(|e| format!("{what}: cannot start: {e}"))?;
-    let seconds = start.elapsed().as_secs_f64();
+    let (out, seconds) = timed(|| cmd.output());
+    let out = out.map_err(|e| format!("{what}: cannot start: {e}"))?;
     if !out.status.success() {
         return Err(format!(
             "{what} failed ({}): {}",
@@ -36,9 +33,8 @@ pub fn time_command(cmd: &mut Command, what: &str) -> Result<(Output, f64), Stri
     Ok((out, seconds))
 }
 
-/// A progress bar over a run's steps (indicatif), on standard error. Hidden with `--quiet` or
-/// when standard error is not a terminal; then, if asked to ([`Progress::echo`]) and not quiet,
-/// each step's label is printed as a line instead.
+/// A progress bar over a run's steps on standard error, hidden with `--quiet` or when standard
+/// error is not a terminal (then, with [`Progress::echo`], each step's label is printed instead).
 pub struct Progress {
     bar: ProgressBar,
     started: bool,
@@ -67,15 +63,6 @@ impl Progress {
         }
     }
 
-    /// Progress as lines on standard error only: no bar, every label printed.
-    pub fn lines() -> Self {
-        Self {
-            bar: ProgressBar::hidden(),
-            started: false,
-            echo: true,
-        }
-    }
-
     /// Prints each label as a line when the bar is hidden but the run is not quiet.
     pub fn echo(mut self, quiet: bool) -> Self {
         self.echo = !quiet && self.bar.is_hidden();
@@ -83,7 +70,7 @@ impl Progress {
     }
 
     /// A new step `label` begins: the previous one is done.
-    pub fn step(&mut self, label: &str) {
+    fn step(&mut self, label: &str) {
         if self.started {
             self.bar.inc(1);
         }
@@ -95,20 +82,10 @@ impl Progress {
         }
     }
 
-    /// Steps done so far (the current one not counted).
-    pub fn done(&self) -> u64 {
-        self.bar.position()
-    }
-
-    /// Clears the bar.
-    pub fn finish(&self) {
-        self.bar.finish_and_clear();
-    }
-
     /// Runs `experiment` with this progress as its step callback, then clears the bar.
     pub fn run<T>(mut self, experiment: impl FnOnce(&mut dyn FnMut(&str)) -> T) -> T {
         let out = experiment(&mut |label| self.step(label));
-        self.finish();
+        self.bar.finish_and_clear();
         out
     }
 }
@@ -155,7 +132,6 @@ mod tests {
         for l in ["a", "b", "c"] {
             p.step(l);
         }
-        assert_eq!(p.done(), 2, "the last step is still running");
-        p.finish();
+        assert_eq!(p.bar.position(), 2, "the last step is still running");
     }
 }

@@ -59,15 +59,8 @@ pub fn image_error(img: &Image, reference: &Image, mask: &[bool]) -> ImageError 
 
 /// Mean luminance over the masked pixels.
 pub fn masked_mean(img: &Image, mask: &[bool]) -> f64 {
-    let (sum, n) = img
-        .pixels()
-        .iter()
-        .zip(mask)
-        .filter(|(_, &m)| m)
-        .fold((0.0f64, 0usize), |(s, n), (p, _)| {
-            (s + f64::from(luminance(*p)), n + 1)
-        });
-    sum / n.max(1) as f64
+    let masked = img.pixels().iter().zip(mask).filter(|(_, &m)| m);
+    super::stats::mean(masked.map(|(p, _)| f64::from(luminance(*p))))
 }
 
 #[cfg(test)]

@@ -1,7 +1,7 @@
-//! Where and how a result was made: the machine ([`Machine`]: its CPU, its cores, which of a
-//! run's thread and rank counts are oversubscribed) and the [`Provenance`] header every
-//! generated Markdown page starts with and every CSV carries beside it.
+//! Where and how a result was made: the [`Machine`] and the [`Provenance`] header every generated
+//! Markdown page starts with and every CSV carries beside it.
 
+use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -52,13 +52,12 @@ impl Machine {
     /// [`Self::banner`] with MPI layouts too, each `(ranks, threads per rank)`: a layout is
     /// oversubscribed when its ranks' threads together are more than the cores.
     pub fn banner_with_ranks(&self, threads: &[usize], ranks: &[(usize, usize)]) -> String {
-        let mut over: Vec<usize> = threads.to_vec();
-        over.retain(|&t| self.oversubscribed(t));
-        over.sort_unstable();
-        over.dedup();
-        let list: Vec<String> = over.iter().map(usize::to_string).collect();
+        let over: BTreeSet<usize> = (threads.iter().copied())
+            .filter(|&t| self.oversubscribed(t))
+            .collect();
         let mut parts: Vec<String> = Vec::new();
         if !over.is_empty() {
+            let list: Vec<String> = over.iter().map(usize::to_string).collect();
             parts.push(format!("{} threads", list.join(", ")));
         }
         let mut layouts = ranks.to_vec();
@@ -179,16 +178,10 @@ impl Provenance {
         ]
     }
 
-    /// The header as a Markdown list, a blank line after it.
-    pub fn markdown(&self) -> String {
-        let mut out: String = self.lines().iter().map(|l| format!("- {l}\n")).collect();
-        out.push('\n');
-        out
-    }
-
-    /// A Markdown page: `# title`, this header, then `body`.
+    /// A Markdown page: `# title`, this header as a list, then `body`.
     pub fn page(&self, title: &str, body: &str) -> String {
-        format!("# {title}\n\n{}{body}", self.markdown())
+        let header: String = self.lines().iter().map(|l| format!("- {l}\n")).collect();
+        format!("# {title}\n\n{header}\n{body}")
     }
 }
 
@@ -222,29 +215,25 @@ impl<'a> Output<'a> {
 
     /// Writes `figure` as `STEM.png` and `STEM.svg`.
     pub fn figure(&self, stem: &str, figure: &crate::plot::Figure) -> Result<(), String> {
-        figure.write_png(&self.path(&format!("{stem}.png")))?;
-        figure.write_svg(&self.path(&format!("{stem}.svg")))
+        let png = self.path(&format!("{stem}.png"));
+        (figure.render()?.save(&png)).map_err(|e| format!("{}: {e}", png.display()))?;
+        write_file(&self.path(&format!("{stem}.svg")), &figure.render_svg()?)
     }
 
     /// Writes the CSV `name` as it is (a CSV reader sees only the table) and its header beside
     /// it, in `NAME.provenance` (one line each).
     pub fn csv(&self, name: &str, text: &str) -> Result<(), String> {
         write_file(&self.path(name), text)?;
-        let lines: String = self
-            .provenance
-            .lines()
-            .iter()
-            .map(|l| format!("{l}\n"))
-            .collect();
+        let lines = self.provenance.lines().join("\n");
         write_file(
             &self.path(&format!("{name}.provenance")),
-            &format!("provenance of {name}\n{lines}"),
+            &format!("provenance of {name}\n{lines}\n"),
         )
     }
 }
 
 /// Writes `text` to `path`, naming the path in the error.
-pub fn write_file(path: &Path, text: &str) -> Result<(), String> {
+fn write_file(path: &Path, text: &str) -> Result<(), String> {
     std::fs::write(path, text).map_err(|e| format!("{}: {e}", path.display()))
 }
 

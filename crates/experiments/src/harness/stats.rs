@@ -1,8 +1,8 @@
-//! The statistics every experiment reports: medians, means, ranges, the spread of a sample, the
-//! paired-ratio interval the timing checks are judged on, and a least-squares line.
+//! Medians, means, ranges, spreads, the paired-ratio interval timing checks are judged on, and a
+//! least-squares line.
 
-/// The median of `values` (the mean of the middle two for an even count); `NaN` when empty.
-/// `NaN` values are left out.
+/// The median of `values` (the mean of the middle two for an even count), `NaN` values left out;
+/// `NaN` when empty.
 pub fn median(values: &[f64]) -> f64 {
     let mut v: Vec<f64> = values.iter().copied().filter(|x| !x.is_nan()).collect();
     if v.is_empty() {
@@ -26,9 +26,8 @@ pub enum Middle {
     Upper,
 }
 
-/// The index of the median run of `values`: where a run, not a value, must be chosen (its other
-/// figures are reported with its time), the middle one; for an even count the lower or upper
-/// of the middle two, as `middle` says. Panics when `values` is empty.
+/// The index of the median of `values` (for an even count, the `middle` of the middle two), where
+/// a run, not a value, must be chosen. Panics when `values` is empty.
 pub fn median_index(values: &[f64], middle: Middle) -> usize {
     let mut order: Vec<usize> = (0..values.len()).collect();
     order.sort_by(|&a, &b| values[a].total_cmp(&values[b]));
@@ -87,17 +86,16 @@ pub fn paired_ratio(a: &[f64], b: &[f64]) -> Option<PairedRatio> {
         acc += c;
         cdf.push(acc / 2f64.powi(n as i32));
     }
-    // Largest k >= 1 with 1 - 2 P(X <= k-1) >= 0.95; none when n is too small (n < 6).
-    let k = (1..=n / 2).rev().find(|&k| 1.0 - 2.0 * cdf[k - 1] >= 0.95);
-    let (lo, hi, coverage) = match k {
-        Some(k) => (q[k - 1], q[n - k], 1.0 - 2.0 * cdf[k - 1]),
-        None => (q[0], q[n - 1], 1.0 - 2.0 * cdf[0]),
-    };
+    // Largest k with 1 - 2 P(X <= k-1) >= 0.95; 1 (the whole range) when n < 6 has none.
+    let k = (2..=n / 2)
+        .rev()
+        .find(|&k| 1.0 - 2.0 * cdf[k - 1] >= 0.95)
+        .unwrap_or(1);
     Some(PairedRatio {
         median: median(&q),
-        lo,
-        hi,
-        coverage,
+        lo: q[k - 1],
+        hi: q[n - k],
+        coverage: 1.0 - 2.0 * cdf[k - 1],
         n,
     })
 }

@@ -1,9 +1,6 @@
-//! One table specification, two outputs: a Markdown table for the report and CSV for the
-//! data. Each column is defined once, with its Markdown heading, its CSV key and how a row
-//! fills it; a column may be Markdown-only or CSV-only, and a CSV cell may be formatted apart
-//! from the Markdown one (more digits, no units).
-
-use std::fmt::Write as _;
+//! One table specification, two outputs: each column is defined once, with its Markdown heading,
+//! its CSV key and how a row fills it. A column may be Markdown-only or CSV-only, and its CSV
+//! cell may be formatted apart from the Markdown one (more digits, no units).
 
 type Cell<'a, R> = Box<dyn Fn(&R) -> String + 'a>;
 
@@ -28,6 +25,11 @@ impl<R> Default for Table<'_, R> {
     }
 }
 
+/// One Markdown line: `|`, each cell followed by `|`.
+fn md_line(cells: impl Iterator<Item = String>) -> String {
+    cells.fold("|".to_owned(), |line, cell| line + &cell + "|") + "\n"
+}
+
 impl<'a, R> Table<'a, R> {
     /// An empty table.
     pub fn new() -> Self {
@@ -36,12 +38,12 @@ impl<'a, R> Table<'a, R> {
 
     fn push(
         mut self,
-        heading: Option<String>,
+        heading: Option<&str>,
         key: Option<&'static str>,
         md: impl Fn(&R) -> String + 'a,
     ) -> Self {
         self.columns.push(Column {
-            heading,
+            heading: heading.map(str::to_owned),
             key,
             left: false,
             md: Box::new(md),
@@ -52,12 +54,12 @@ impl<'a, R> Table<'a, R> {
 
     /// A column in both outputs, the same text in each (right-aligned in Markdown).
     pub fn col(self, heading: &str, key: &'static str, f: impl Fn(&R) -> String + 'a) -> Self {
-        self.push(Some(heading.to_owned()), Some(key), f)
+        self.push(Some(heading), Some(key), f)
     }
 
     /// A column in the Markdown table only.
     pub fn md(self, heading: &str, f: impl Fn(&R) -> String + 'a) -> Self {
-        self.push(Some(heading.to_owned()), None, f)
+        self.push(Some(heading), None, f)
     }
 
     /// A column in the CSV only.
@@ -86,31 +88,19 @@ impl<'a, R> Table<'a, R> {
     where
         R: 'r,
     {
-        let cols: Vec<&Column<R>> = self
-            .columns
-            .iter()
-            .filter(|c| c.heading.is_some())
+        let cols: Vec<(&str, &Column<R>)> = (self.columns.iter())
+            .filter_map(|c| Some((c.heading.as_deref()?, c)))
             .collect();
-        let mut out = String::from("|");
-        for c in &cols {
-            match c.heading.as_deref().unwrap_or_default() {
-                "" => out.push_str(" |"),
-                h => {
-                    let _ = write!(out, " {h} |");
-                }
-            }
-        }
-        out.push_str("\n|");
-        for c in &cols {
-            out.push_str(if c.left { "---|" } else { "---:|" });
-        }
-        out.push('\n');
+        let mut out = md_line(cols.iter().map(|(h, _)| match h {
+            &"" => " ".to_owned(),
+            h => format!(" {h} "),
+        }));
+        out += &md_line(
+            cols.iter()
+                .map(|(_, c)| if c.left { "---" } else { "---:" }.to_owned()),
+        );
         for r in rows {
-            out.push('|');
-            for c in &cols {
-                let _ = write!(out, " {} |", (c.md)(r));
-            }
-            out.push('\n');
+            out += &md_line(cols.iter().map(|(_, c)| format!(" {} ", (c.md)(r))));
         }
         out
     }
@@ -120,17 +110,12 @@ impl<'a, R> Table<'a, R> {
     where
         R: 'r,
     {
-        let cols: Vec<&Column<R>> = self.columns.iter().filter(|c| c.key.is_some()).collect();
-        let keys: Vec<&str> = cols.iter().filter_map(|c| c.key).collect();
-        let mut out = keys.join(",");
-        out.push('\n');
+        let cols: Vec<(&str, &Cell<R>)> = (self.columns.iter())
+            .filter_map(|c| Some((c.key?, c.csv.as_ref().unwrap_or(&c.md))))
+            .collect();
+        let mut out = cols.iter().map(|c| c.0).collect::<Vec<_>>().join(",") + "\n";
         for r in rows {
-            let cells: Vec<String> = cols
-                .iter()
-                .map(|c| c.csv.as_ref().unwrap_or(&c.md)(r))
-                .collect();
-            out.push_str(&cells.join(","));
-            out.push('\n');
+            out += &(cols.iter().map(|c| c.1(r)).collect::<Vec<_>>().join(",") + "\n");
         }
         out
     }
