@@ -65,28 +65,28 @@ pub(crate) fn render_sequence<'a, T>(
 }
 
 /// Renders the scene's orbit (`frames` frames, the cache kept across them) with `scheme` and a
-/// fresh cache, calling `each(frame, &stats)` after every frame.
+/// fresh cache, calling `before(frame)` before every frame.
 pub fn orbit_with_scheme(
     scheme: Scheme,
     scene: &Scene,
     settings: &RenderSettings,
     threads: usize,
     frames: usize,
-    each: &mut dyn FnMut(usize, &FrameStats),
+    before: &mut dyn FnMut(usize),
 ) -> Result<Vec<FrameStats>, String> {
     let config = settings
         .cache_config(scene)
         .map_err(|e| format!("{}: {e}", scene.name()))?;
-    let turn = |i: usize| i as f32 / frames.max(1) as f32;
-    let shot = |i| (scene, Camera::orbit(scene, turn(i)), None);
-    let stats = |i, frame: FrameResult, _| {
-        each(i, &frame.stats);
-        frame.stats
+    let shot = |i| {
+        before(i);
+        (scene, Camera::orbit(scene, i as f32 / frames as f32), None)
     };
+    let settings = (settings, threads);
+    let stats = |_, frame: FrameResult, _| frame.stats;
     Ok(render_sequence(
         scheme,
         config,
-        (settings, threads),
+        settings,
         0..frames,
         shot,
         stats,
@@ -164,23 +164,13 @@ pub fn run(
         return Err("--frames and --threads must be at least 1".to_owned());
     }
     let scene = scenes::load(&config.scene)?;
+    let n = config.frames;
     let mut orbits = Vec::new();
     for &scheme in &config.schemes {
         let threads = config.threads_of(scheme);
         let label = format!("{} {} {threads}t", config.scene, scheme.name());
-        progress(&format!("{label} frame 1/{}", config.frames));
-        let frames = orbit_with_scheme(
-            scheme,
-            &scene,
-            &config.settings,
-            threads,
-            config.frames,
-            &mut |i, _| {
-                if i + 1 < config.frames {
-                    progress(&format!("{label} frame {}/{}", i + 2, config.frames));
-                }
-            },
-        )?;
+        let mut before = |i: usize| progress(&format!("{label} frame {}/{n}", i + 1));
+        let frames = orbit_with_scheme(scheme, &scene, &config.settings, threads, n, &mut before)?;
         orbits.push(Orbit {
             scheme,
             threads,
@@ -195,10 +185,6 @@ pub fn run(
 }
 
 impl Animation {
-    fn threads(&self) -> Vec<usize> {
-        self.orbits.iter().map(|o| o.threads).collect()
-    }
-
     /// `animation-<scene>.csv`: one row per scheme and frame.
     pub fn csv(&self) -> String {
         let rows: Vec<(&Orbit, usize, &FrameStats)> = self
@@ -234,38 +220,35 @@ impl Animation {
     /// `animation-<scene>.md`'s body: totals per scheme.
     pub fn markdown(&self) -> String {
         let s = &self.config.settings;
-        let rest = |o: &Orbit| -> Vec<FrameStats> { o.frames.iter().skip(1).cloned().collect() };
-        let sum = |o: &Orbit, f: fn(&FrameStats) -> f64| o.frames.iter().map(f).sum::<f64>();
+        let sum = |o: &Orbit, skip, f: fn(&FrameStats) -> f64| {
+            o.frames.iter().skip(skip).map(f).sum::<f64>()
+        };
         let count = |o: &Orbit, skip, f: fn(&FrameStats) -> u64| {
             o.frames.iter().skip(skip).map(f).sum::<u64>().to_string()
         };
+        let first = |o: &Orbit| o.frames.first().cloned();
         let t = Table::new()
             .md("scheme", |o: &Orbit| o.scheme.heading().to_owned())
             .left()
             .md("threads", |o| self.machine.count(o.threads))
             .md("frame 0 (s)", |o| {
-                format!("{:.3}", o.frames.first().map_or(f64::NAN, |f| f.seconds))
+                format!("{:.3}", first(o).map_or(f64::NAN, |f| f.seconds))
             })
             .md("frames 1.. mean (s)", |o| {
-                let rest = rest(o);
-                let mean = if rest.is_empty() {
-                    f64::NAN
-                } else {
-                    rest.iter().map(|f| f.seconds).sum::<f64>() / rest.len() as f64
-                };
-                format!("{mean:.4}")
+                let rest = o.frames.len().saturating_sub(1) as f64;
+                format!("{:.4}", sum(o, 1, |f| f.seconds) / rest)
             })
             .md("total (s)", |o| format!("{:.2}", o.total_seconds()))
             .md("frame 0 samples", |o| {
-                o.frames.first().map_or(0, |f| f.ic_samples).to_string()
+                first(o).map_or(0, |f| f.ic_samples).to_string()
             })
             .md("frames 1.. samples", |o| count(o, 1, |f| f.ic_samples))
             .md("total samples", |o| o.total_samples().to_string())
             .md("lock wait (s)", |o| {
-                format!("{:.3}", sum(o, |f| f.lock_wait_seconds))
+                format!("{:.3}", sum(o, 0, |f| f.lock_wait_seconds))
             })
             .md("merge (s)", |o| {
-                format!("{:.4}", sum(o, |f| f.merge_seconds))
+                format!("{:.4}", sum(o, 0, |f| f.merge_seconds))
             })
             .md("discarded", |o| count(o, 0, |f| f.discarded));
         format!(
@@ -319,7 +302,7 @@ impl Animation {
             s.height
         );
         frame_figure(
-            vec![title, self.machine.banner(&self.threads())],
+            vec![title, self.machine.banner(&self.config.thread_counts())],
             n,
             ["NEW IC SAMPLES PER FRAME", "SAMPLES"],
             series,
@@ -330,7 +313,7 @@ impl Animation {
     /// Writes `animation-<scene>.csv`, `.md`, `.png` and `.svg` into `dir`, each with the
     /// provenance of `command`.
     pub fn write(&self, dir: &Path, command: &str) -> Result<(), String> {
-        let provenance = Provenance::new(command, &self.machine, &self.threads(), &[]);
+        let provenance = Provenance::new(command, &self.machine, &self.config.thread_counts(), &[]);
         let out = Output::new(dir, &provenance)?;
         let stem = format!("animation-{}", self.config.scene);
         out.csv(&format!("{stem}.csv"), &self.csv())?;
@@ -455,20 +438,16 @@ mod tests {
         let scene = wfic_render::scenes::cornell().unwrap();
         let settings = RenderSettings::new(24, 24).rays_per_record(16);
         let mut seen = Vec::new();
-        let stats = orbit_with_scheme(Scheme::Wf, &scene, &settings, 2, 3, &mut |i, s| {
-            seen.push((i, s.ic_samples))
-        })
-        .unwrap();
+        let stats =
+            orbit_with_scheme(Scheme::Wf, &scene, &settings, 2, 3, &mut |i| seen.push(i)).unwrap();
         assert_eq!(stats.len(), 3);
-        assert_eq!(seen.len(), 3);
-        assert_eq!(seen[2].0, 2);
+        assert_eq!(seen, [0, 1, 2]);
         assert!(stats[0].ic_samples > 0);
         // The records of earlier frames are kept: the cache only grows.
         assert!(stats[2].cache_records >= stats[0].cache_records);
         assert!(stats[2].cache_records as u64 >= stats[0].ic_samples);
         // The reference computes every primary hit in every frame and keeps nothing.
-        let none =
-            orbit_with_scheme(Scheme::None, &scene, &settings, 2, 3, &mut |_, _| {}).unwrap();
+        let none = orbit_with_scheme(Scheme::None, &scene, &settings, 2, 3, &mut |_| {}).unwrap();
         assert!(none.iter().all(|s| s.cache_records == 0 && s.hits == 0));
         assert!(none[2].ic_samples > 2 * stats[2].ic_samples, "{none:?}");
     }

@@ -405,11 +405,8 @@ pub fn run(
         margin: near_margin(config.settings.accuracy),
         threads: config.threads,
     };
-    let keep: Vec<usize> = {
-        let mut k: Vec<usize> = (0..4).map(|j| j * (n - 1) / 3).collect();
-        k.dedup();
-        k
-    };
+    let mut keep: Vec<usize> = (0..4).map(|j| j * (n - 1) / 3).collect();
+    keep.dedup();
     let strip_scheme = if config.schemes.contains(&Scheme::Wf) {
         Scheme::Wf
     } else {
@@ -421,7 +418,7 @@ pub fn run(
     for &scheme in &config.schemes {
         for mode in Mode::ALL {
             // One cache for the whole animation, or (fresh) a new one for every frame.
-            let spans: Vec<std::ops::Range<usize>> = match mode {
+            let spans: Vec<Range<usize>> = match mode {
                 Mode::Fresh => (0..n).map(|i| i..i + 1).collect(),
                 _ => std::iter::once(0..n).collect(),
             };
@@ -493,22 +490,16 @@ impl Dynamic {
     fn frames_wf_lost(&self) -> Vec<String> {
         let mut lost = Vec::new();
         for i in 1..self.config.frames {
-            let of = |s: Scheme| {
-                self.rows_of(s, Mode::Removal)
-                    .find(|r| r.frame == i)
-                    .map(|r| r.seconds)
-            };
-            let wf = of(Scheme::Wf).unwrap_or(f64::INFINITY);
+            let of = |s| self.rows_of(s, Mode::Removal).find(|r| r.frame == i);
+            let wf = of(Scheme::Wf).map_or(f64::INFINITY, |r| r.seconds);
             for &s in &self.config.schemes {
                 if s == Scheme::Wf || s == Scheme::Tra {
                     continue;
                 }
-                if let Some(t) = of(s).filter(|&t| t < wf) {
+                if let Some(t) = of(s).map(|r| r.seconds).filter(|&t| t < wf) {
                     lost.push(format!(
-                        "frame {i}: {} {:.3} s < WF {:.3} s",
-                        s.heading(),
-                        t,
-                        wf
+                        "frame {i}: {} {t:.3} s < WF {wf:.3} s",
+                        s.heading()
                     ));
                 }
             }
