@@ -7,52 +7,90 @@
 use crate::harness::table::{star, Table};
 use crate::harness::{Machine, Output, Provenance};
 use crate::plot::{Figure, Line, Panel};
+use std::ops::Range;
 use std::path::Path;
-use wfic::cache::{CacheJob, IrradianceCache, Scheme};
-use wfic_render::{scenes, FrameStats, RenderSettings, Scene};
+use wfic::cache::Rgb8;
+use wfic::cache::{CacheConfig, CacheJob, CacheStats, IrradianceCache, Scheme};
+use wfic::ic::Selection;
+use wfic_render::parallel::render_frame_removing;
+use wfic_render::{scenes, Camera, FrameResult, FrameStats, RenderSettings, Scene};
+
+/// A frame of a sequence: the scene, its camera, and what to remove from the cache first.
+pub(crate) type Shot<'a> = (&'a Scene, Camera, Option<Selection>);
+
+/// Renders `frames` in order on one new cache of `scheme` over `config` (`shot(i)` says what
+/// frame `i` is), returning `each(i, frame, cache statistics after it)` for every frame: the
+/// schedule of both the orbit and `reproduce dynamic`.
+pub(crate) fn render_sequence<'a, T>(
+    scheme: Scheme,
+    config: CacheConfig,
+    (settings, threads): (&RenderSettings, usize),
+    frames: Range<usize>,
+    shot: impl FnMut(usize) -> Shot<'a>,
+    each: impl FnMut(usize, FrameResult, CacheStats) -> T,
+) -> Vec<T> {
+    struct Sequence<'s, S, E> {
+        settings: &'s RenderSettings,
+        threads: usize,
+        frames: Range<usize>,
+        shot: S,
+        each: E,
+    }
+    impl<'a, T, S, E> CacheJob for Sequence<'_, S, E>
+    where
+        S: FnMut(usize) -> Shot<'a>,
+        E: FnMut(usize, FrameResult, CacheStats) -> T,
+    {
+        type Output = Vec<T>;
+        fn run<C: IrradianceCache>(mut self, mut cache: C) -> Vec<T> {
+            let mut out = Vec::with_capacity(self.frames.len());
+            for i in self.frames.clone() {
+                let (scene, camera, removal) = (self.shot)(i);
+                let (s, t) = (self.settings, self.threads);
+                let frame =
+                    render_frame_removing(scene, &camera, s, &mut cache, t, removal.as_ref());
+                out.push((self.each)(i, frame, cache.stats()));
+            }
+            out
+        }
+    }
+    let job = Sequence {
+        settings,
+        threads,
+        frames,
+        shot,
+        each,
+    };
+    scheme.build(config, job)
+}
 
 /// Renders the scene's orbit (`frames` frames, the cache kept across them) with `scheme` and a
-/// fresh cache, calling `each(frame, &stats)` after every frame.
+/// fresh cache, calling `before(frame)` before every frame.
 pub fn orbit_with_scheme(
     scheme: Scheme,
     scene: &Scene,
     settings: &RenderSettings,
     threads: usize,
     frames: usize,
-    each: &mut dyn FnMut(usize, &FrameStats),
+    before: &mut dyn FnMut(usize),
 ) -> Result<Vec<FrameStats>, String> {
-    struct Orbit<'a> {
-        scene: &'a Scene,
-        settings: &'a RenderSettings,
-        threads: usize,
-        frames: usize,
-        each: &'a mut dyn FnMut(usize, &FrameStats),
-    }
-    impl CacheJob for Orbit<'_> {
-        type Output = Vec<FrameStats>;
-        fn run<C: IrradianceCache>(self, mut cache: C) -> Vec<FrameStats> {
-            let each = self.each;
-            wfic_render::render_orbit(
-                self.scene,
-                self.settings,
-                &mut cache,
-                self.threads,
-                self.frames,
-                |i, f| each(i, &f.stats),
-            )
-        }
-    }
     let config = settings
         .cache_config(scene)
         .map_err(|e| format!("{}: {e}", scene.name()))?;
-    let job = Orbit {
-        scene,
-        settings,
-        threads,
-        frames,
-        each,
+    let shot = |i| {
+        before(i);
+        (scene, Camera::orbit(scene, i as f32 / frames as f32), None)
     };
-    Ok(scheme.build(config, job))
+    let settings = (settings, threads);
+    let stats = |_, frame: FrameResult, _| frame.stats;
+    Ok(render_sequence(
+        scheme,
+        config,
+        settings,
+        0..frames,
+        shot,
+        stats,
+    ))
 }
 
 /// What to run.
@@ -126,23 +164,13 @@ pub fn run(
         return Err("--frames and --threads must be at least 1".to_owned());
     }
     let scene = scenes::load(&config.scene)?;
+    let n = config.frames;
     let mut orbits = Vec::new();
     for &scheme in &config.schemes {
         let threads = config.threads_of(scheme);
         let label = format!("{} {} {threads}t", config.scene, scheme.name());
-        progress(&format!("{label} frame 1/{}", config.frames));
-        let frames = orbit_with_scheme(
-            scheme,
-            &scene,
-            &config.settings,
-            threads,
-            config.frames,
-            &mut |i, _| {
-                if i + 1 < config.frames {
-                    progress(&format!("{label} frame {}/{}", i + 2, config.frames));
-                }
-            },
-        )?;
+        let mut before = |i: usize| progress(&format!("{label} frame {}/{n}", i + 1));
+        let frames = orbit_with_scheme(scheme, &scene, &config.settings, threads, n, &mut before)?;
         orbits.push(Orbit {
             scheme,
             threads,
@@ -157,10 +185,6 @@ pub fn run(
 }
 
 impl Animation {
-    fn threads(&self) -> Vec<usize> {
-        self.orbits.iter().map(|o| o.threads).collect()
-    }
-
     /// `animation-<scene>.csv`: one row per scheme and frame.
     pub fn csv(&self) -> String {
         let rows: Vec<(&Orbit, usize, &FrameStats)> = self
@@ -196,38 +220,35 @@ impl Animation {
     /// `animation-<scene>.md`'s body: totals per scheme.
     pub fn markdown(&self) -> String {
         let s = &self.config.settings;
-        let rest = |o: &Orbit| -> Vec<FrameStats> { o.frames.iter().skip(1).cloned().collect() };
-        let sum = |o: &Orbit, f: fn(&FrameStats) -> f64| o.frames.iter().map(f).sum::<f64>();
+        let sum = |o: &Orbit, skip, f: fn(&FrameStats) -> f64| {
+            o.frames.iter().skip(skip).map(f).sum::<f64>()
+        };
         let count = |o: &Orbit, skip, f: fn(&FrameStats) -> u64| {
             o.frames.iter().skip(skip).map(f).sum::<u64>().to_string()
         };
+        let first = |o: &Orbit| o.frames.first().cloned();
         let t = Table::new()
             .md("scheme", |o: &Orbit| o.scheme.heading().to_owned())
             .left()
             .md("threads", |o| self.machine.count(o.threads))
             .md("frame 0 (s)", |o| {
-                format!("{:.3}", o.frames.first().map_or(f64::NAN, |f| f.seconds))
+                format!("{:.3}", first(o).map_or(f64::NAN, |f| f.seconds))
             })
             .md("frames 1.. mean (s)", |o| {
-                let rest = rest(o);
-                let mean = if rest.is_empty() {
-                    f64::NAN
-                } else {
-                    rest.iter().map(|f| f.seconds).sum::<f64>() / rest.len() as f64
-                };
-                format!("{mean:.4}")
+                let rest = o.frames.len().saturating_sub(1) as f64;
+                format!("{:.4}", sum(o, 1, |f| f.seconds) / rest)
             })
             .md("total (s)", |o| format!("{:.2}", o.total_seconds()))
             .md("frame 0 samples", |o| {
-                o.frames.first().map_or(0, |f| f.ic_samples).to_string()
+                first(o).map_or(0, |f| f.ic_samples).to_string()
             })
             .md("frames 1.. samples", |o| count(o, 1, |f| f.ic_samples))
             .md("total samples", |o| o.total_samples().to_string())
             .md("lock wait (s)", |o| {
-                format!("{:.3}", sum(o, |f| f.lock_wait_seconds))
+                format!("{:.3}", sum(o, 0, |f| f.lock_wait_seconds))
             })
             .md("merge (s)", |o| {
-                format!("{:.4}", sum(o, |f| f.merge_seconds))
+                format!("{:.4}", sum(o, 0, |f| f.merge_seconds))
             })
             .md("discarded", |o| count(o, 0, |f| f.discarded));
         format!(
@@ -247,90 +268,52 @@ impl Animation {
     /// are scaled to frames 1.. (frame 0, the empty cache, is clipped; its values are in the note).
     pub fn figure(&self) -> Figure {
         let n = self.config.frames;
-        let mut time_lines = Vec::new();
-        let mut sample_lines = Vec::new();
-        let mut legend = Vec::new();
-        let (mut tmax, mut smax) = (0.0f64, 0.0f64);
-        let mut first = Vec::new();
-        for o in &self.orbits {
-            let star = star(self.machine.oversubscribed(o.threads));
-            let label = format!("{} {}T{star}", o.scheme.heading(), o.threads);
-            legend.push((label.clone(), o.scheme.colour()));
-            for f in o.frames.iter().skip(1) {
-                tmax = tmax.max(f.seconds);
-                smax = smax.max(f.ic_samples as f64);
-            }
-            if let Some(f0) = o.frames.first() {
-                first.push(format!(
+        let series: Vec<Series> = (self.orbits.iter())
+            .map(|o| Series {
+                label: format!(
+                    "{} {}T{}",
+                    o.scheme.heading(),
+                    o.threads,
+                    star(self.machine.oversubscribed(o.threads))
+                ),
+                colour: o.scheme.colour(),
+                markers: false,
+                points: (o.frames.iter().enumerate())
+                    .map(|(i, f)| [i as f64, f.seconds, f.ic_samples as f64])
+                    .collect(),
+            })
+            .collect();
+        let first: Vec<String> = (self.orbits.iter())
+            .filter_map(|o| {
+                let f = o.frames.first()?;
+                Some(format!(
                     "{} {:.2}S/{}",
                     o.scheme.heading(),
-                    f0.seconds,
-                    f0.ic_samples
-                ));
-            }
-            let line = |label, g: fn(&FrameStats) -> f64| Line {
-                label,
-                colour: o.scheme.colour(),
-                points: (o.frames.iter().enumerate())
-                    .map(|(i, f)| (i as f64, g(f)))
-                    .collect(),
-                markers: false,
-            };
-            time_lines.push(line(label.clone(), |f| f.seconds));
-            sample_lines.push(line(label, |f| f.ic_samples as f64));
-        }
-        let note = if n > 1 {
-            Some(format!(
-                "FRAME 0 (EMPTY CACHE) CLIPPED: {}",
-                first.join(", ")
-            ))
-        } else {
-            None
-        };
-        let base = Panel {
-            x_range: (0.0, (n.max(2) - 1) as f64),
-            x_label: "FRAME".into(),
-            legend,
-            note,
-            ..Panel::default()
-        };
+                    f.seconds,
+                    f.ic_samples
+                ))
+            })
+            .collect();
         let s = &self.config.settings;
-        Figure {
-            header: vec![
-                format!(
-                    "ANIMATION: {} ({} FRAMES, 360 DEGREE ORBIT, CACHE REUSED), {}X{}",
-                    self.config.scene.to_uppercase(),
-                    n,
-                    s.width,
-                    s.height
-                ),
-                self.machine.banner(&self.threads()),
-            ],
-            panels: vec![
-                Panel {
-                    title: "TIME PER FRAME".into(),
-                    left_label: "TIME (S)".into(),
-                    left_max: (n > 1).then_some(tmax * 1.1),
-                    lines: time_lines,
-                    ..base.clone()
-                },
-                Panel {
-                    title: "NEW IC SAMPLES PER FRAME".into(),
-                    left_label: "SAMPLES".into(),
-                    left_max: (n > 1).then_some(smax * 1.1),
-                    lines: sample_lines,
-                    ..base
-                },
-            ],
-            columns: 1,
-            panel_size: (1200, 480),
-        }
+        let title = format!(
+            "ANIMATION: {} ({n} FRAMES, 360 DEGREE ORBIT, CACHE REUSED), {}X{}",
+            self.config.scene.to_uppercase(),
+            s.width,
+            s.height
+        );
+        frame_figure(
+            vec![title, self.machine.banner(&self.config.thread_counts())],
+            n,
+            ["NEW IC SAMPLES PER FRAME", "SAMPLES"],
+            series,
+            (n > 1).then(|| format!("FRAME 0 (EMPTY CACHE) CLIPPED: {}", first.join(", "))),
+        )
     }
 
     /// Writes `animation-<scene>.csv`, `.md`, `.png` and `.svg` into `dir`, each with the
     /// provenance of `command`.
     pub fn write(&self, dir: &Path, command: &str) -> Result<(), String> {
-        let provenance = Provenance::new(command, &self.machine, &self.threads(), &[]);
+        let provenance = Provenance::new(command, &self.machine, &self.config.thread_counts(), &[]);
         let out = Output::new(dir, &provenance)?;
         let stem = format!("animation-{}", self.config.scene);
         out.csv(&format!("{stem}.csv"), &self.csv())?;
@@ -340,6 +323,57 @@ impl Animation {
         );
         out.markdown(&format!("{stem}.md"), &title, &self.markdown())?;
         out.figure(&stem, &self.figure())
+    }
+}
+
+/// One line of a [`frame_figure`]: a scheme's (and mode's) `[frame, seconds, other]` points.
+pub(crate) struct Series {
+    pub label: String,
+    pub colour: Rgb8,
+    pub markers: bool,
+    pub points: Vec<[f64; 3]>,
+}
+
+/// Two panels over `frames` frames, one line a series: the time per frame above `other`'s
+/// `[title, axis label]`. With `clipped` (its note), both axes are scaled to frames 1.. .
+pub(crate) fn frame_figure(
+    header: Vec<String>,
+    frames: usize,
+    other: [&str; 2],
+    series: Vec<Series>,
+    clipped: Option<String>,
+) -> Figure {
+    let top = |k: usize| {
+        let points = series.iter().flat_map(|s| &s.points);
+        let max = points
+            .filter(|p| p[0] > 0.0)
+            .map(|p| p[k])
+            .fold(0.0, f64::max);
+        clipped.is_some().then_some(max * 1.1)
+    };
+    let panel = |[title, label]: [&str; 2], k: usize| Panel {
+        title: title.into(),
+        x_range: (0.0, (frames.max(2) - 1) as f64),
+        x_label: "FRAME".into(),
+        left_label: label.into(),
+        left_max: top(k),
+        lines: (series.iter())
+            .map(|s| Line {
+                label: s.label.clone(),
+                colour: s.colour,
+                points: s.points.iter().map(|p| (p[0], p[k])).collect(),
+                markers: s.markers,
+            })
+            .collect(),
+        legend: series.iter().map(|s| (s.label.clone(), s.colour)).collect(),
+        note: clipped.clone(),
+        ..Panel::default()
+    };
+    Figure {
+        header,
+        panels: vec![panel(["TIME PER FRAME", "TIME (S)"], 1), panel(other, 2)],
+        columns: 1,
+        panel_size: (1200, 480),
     }
 }
 
@@ -404,20 +438,16 @@ mod tests {
         let scene = wfic_render::scenes::cornell().unwrap();
         let settings = RenderSettings::new(24, 24).rays_per_record(16);
         let mut seen = Vec::new();
-        let stats = orbit_with_scheme(Scheme::Wf, &scene, &settings, 2, 3, &mut |i, s| {
-            seen.push((i, s.ic_samples))
-        })
-        .unwrap();
+        let stats =
+            orbit_with_scheme(Scheme::Wf, &scene, &settings, 2, 3, &mut |i| seen.push(i)).unwrap();
         assert_eq!(stats.len(), 3);
-        assert_eq!(seen.len(), 3);
-        assert_eq!(seen[2].0, 2);
+        assert_eq!(seen, [0, 1, 2]);
         assert!(stats[0].ic_samples > 0);
         // The records of earlier frames are kept: the cache only grows.
         assert!(stats[2].cache_records >= stats[0].cache_records);
         assert!(stats[2].cache_records as u64 >= stats[0].ic_samples);
         // The reference computes every primary hit in every frame and keeps nothing.
-        let none =
-            orbit_with_scheme(Scheme::None, &scene, &settings, 2, 3, &mut |_, _| {}).unwrap();
+        let none = orbit_with_scheme(Scheme::None, &scene, &settings, 2, 3, &mut |_| {}).unwrap();
         assert!(none.iter().all(|s| s.cache_records == 0 && s.hits == 0));
         assert!(none[2].ic_samples > 2 * stats[2].ic_samples, "{none:?}");
     }

@@ -4,17 +4,19 @@
 
 mod report;
 
+use crate::animation::render_sequence;
+use crate::harness::measure::timed;
 use crate::harness::metrics::{image_error, surface_mask};
 use crate::harness::stats::{self, median_index, std_dev, Middle};
 use crate::harness::table::star;
 use crate::harness::{Check, Machine, Verdict};
 use std::collections::HashMap;
-use wfic::cache::{CacheConfig, CacheJob, IrradianceCache, Scheme};
+use std::ops::Range;
+use wfic::cache::{CacheConfig, CacheStats, Scheme};
 use wfic::ic::Selection;
 use wfic_render::film::Image;
-use wfic_render::parallel::{render_frame_removing, render_reference};
 use wfic_render::scenes::{self, short_block_bounds, CORNELL_SLIDE};
-use wfic_render::{RenderSettings, Scene};
+use wfic_render::{FrameResult, RenderSettings, Scene};
 
 /// The only scene this experiment knows.
 pub const SCENE: &str = "cornell-moving";
@@ -216,123 +218,73 @@ struct Frames<'a> {
 }
 
 impl Frames<'_> {
+    /// What frame `i` removes in `mode` (at `tolerance` in [`Mode::Removal`]), if anything.
+    fn selection(&self, mode: Mode, tolerance: f32, i: usize) -> Option<Selection> {
+        if i == 0 {
+            return None;
+        }
+        let n = self.scenes.len();
+        let (a_lo, a_hi) = short_block_bounds(CORNELL_SLIDE * t_of(i - 1, n));
+        let (b_lo, b_hi) = short_block_bounds(CORNELL_SLIDE * t_of(i, n));
+        let (lo, hi) = (a_lo.min(b_lo), a_hi.max(b_hi));
+        let ok = "the block's bounds are finite and ordered, the margin and step finite";
+        let frame = u16::try_from(i).unwrap_or(u16::MAX);
+        let step = CORNELL_SLIDE / (n - 1) as f32;
+        match mode {
+            Mode::Removal => Some(Selection::moving(b_lo, b_hi, step, frame, tolerance).expect(ok)),
+            Mode::RemovalNear => Some(Selection::near(lo, hi, self.margin).expect(ok)),
+            Mode::RemovalLocal => Some(Selection::touching(lo, hi).expect(ok)),
+            Mode::Fresh | Mode::Stale => None,
+        }
+    }
+
     /// Renders `span` of the frames on one new cache of `scheme` in `mode` (removing at
     /// `tolerance`), keeping the images of the frames in `keep`.
     fn render(
         &self,
         (scheme, mode, tolerance): (Scheme, Mode, f32),
-        span: std::ops::Range<usize>,
+        span: Range<usize>,
         keep: &[usize],
         progress: &mut dyn FnMut(&str),
     ) -> (Vec<Row>, Vec<Image>) {
+        let n = self.scenes.len();
         let threads = crate::harness::threads_of(scheme, self.threads);
-        let job = Animate {
-            frames: self,
-            span,
-            scheme,
-            mode,
-            threads,
-            progress,
-            keep,
-            tolerance,
-        };
-        scheme.build(self.cache_config, job)
-    }
-}
-
-/// Renders the animation with one scheme's caches in one mode.
-struct Animate<'a> {
-    frames: &'a Frames<'a>,
-    /// The frames this job renders, on one cache.
-    span: std::ops::Range<usize>,
-    scheme: Scheme,
-    mode: Mode,
-    threads: usize,
-    progress: &'a mut dyn FnMut(&str),
-    /// The frames whose images are kept.
-    keep: &'a [usize],
-    /// [`Selection::moving`]'s tolerance for [`Mode::Removal`].
-    tolerance: f32,
-}
-
-impl Animate<'_> {
-    /// What frame `i` of `n` removes in this job's mode, if anything.
-    fn selection(&self, i: usize, n: usize) -> Option<Selection> {
-        if i == 0 {
-            return None;
-        }
-        let (a_lo, a_hi) = short_block_bounds(CORNELL_SLIDE * t_of(i - 1, n));
-        let (b_lo, b_hi) = short_block_bounds(CORNELL_SLIDE * t_of(i, n));
-        let (lo, hi) = (a_lo.min(b_lo), a_hi.max(b_hi));
-        let ok = "the block's bounds are finite and ordered, the margin and step finite";
-        match self.mode {
-            Mode::Removal => Some(
-                Selection::moving(
-                    b_lo,
-                    b_hi,
-                    CORNELL_SLIDE / (n - 1) as f32,
-                    u16::try_from(i).unwrap_or(u16::MAX),
-                    self.tolerance,
-                )
-                .expect(ok),
-            ),
-            Mode::RemovalNear => Some(Selection::near(lo, hi, self.frames.margin).expect(ok)),
-            Mode::RemovalLocal => Some(Selection::touching(lo, hi).expect(ok)),
-            Mode::Fresh | Mode::Stale => None,
-        }
-    }
-}
-
-impl CacheJob for Animate<'_> {
-    type Output = (Vec<Row>, Vec<Image>);
-
-    fn run<C: IrradianceCache>(self, mut cache: C) -> Self::Output {
-        let f = self.frames;
-        let n = f.scenes.len();
-        let mut rows = Vec::with_capacity(self.span.len());
-        let mut kept = Vec::new();
-        for i in self.span.clone() {
-            let scene = &f.scenes[i];
-            (self.progress)(&format!(
+        let shot = |i: usize| {
+            progress(&format!(
                 "{} {} frame {}/{n}",
-                self.scheme.name(),
-                self.mode.name(),
+                scheme.name(),
+                mode.name(),
                 i + 1
             ));
-            let removal = self.selection(i, n);
-            let camera = scene.camera();
-            let out = render_frame_removing(
-                scene,
-                &camera,
-                f.settings,
-                &mut cache,
-                self.threads,
-                removal.as_ref(),
-            );
-            let stats = cache.stats();
-            rows.push(Row {
-                scheme: self.scheme,
-                mode: self.mode,
-                threads: self.threads,
+            let scene = &self.scenes[i];
+            (scene, scene.camera(), self.selection(mode, tolerance, i))
+        };
+        let mut kept = Vec::new();
+        let row = |i: usize, out: FrameResult, cache: CacheStats| {
+            let error = image_error(&out.image, &self.references[i], &self.masks[i]).rel_rmse;
+            if keep.contains(&i) {
+                kept.push(out.image);
+            }
+            Row {
+                scheme,
+                mode,
+                threads,
                 frame: i,
                 seconds: out.stats.seconds,
                 seconds_range: (out.stats.seconds, out.stats.seconds),
                 passes: 1,
                 ic_samples: out.stats.ic_samples,
                 removed: out.stats.removed,
-                records: stats.records,
-                nodes: stats.nodes,
-                error: image_error(&out.image, &f.references[i], &f.masks[i]).rel_rmse,
-            });
-            if self.keep.contains(&i) {
-                kept.push(out.image);
+                records: cache.records,
+                nodes: cache.nodes,
+                error,
             }
-        }
+        };
+        let settings = (self.settings, threads);
+        let rows = render_sequence(scheme, self.cache_config, settings, span, shot, row);
         (rows, kept)
     }
-}
 
-impl Frames<'_> {
     /// The removal mode's frames of `scheme` at `tolerance`, on one new cache.
     fn removal(&self, scheme: Scheme, tolerance: f32, progress: &mut dyn FnMut(&str)) -> Vec<Row> {
         let n = self.scenes.len();
@@ -341,34 +293,20 @@ impl Frames<'_> {
     }
 
     /// The removal mode's further passes, the schemes interleaved so that a slow spell of the
-    /// machine falls on all of them: only their times are kept, each removal row of `rows`
-    /// taking the median of its frame's passes.
+    /// machine falls on all of them: only their times are kept ([`take_medians`]).
     fn more_passes(
         &self,
         config: &DynamicConfig,
         rows: &mut [Row],
         progress: &mut dyn FnMut(&str),
     ) {
-        let mut passes: Vec<Row> = rows
-            .iter()
-            .filter(|r| r.mode == Mode::Removal)
-            .cloned()
-            .collect();
+        let mut passes = Vec::new();
         for _ in 1..config.passes {
             for &scheme in &config.schemes {
                 passes.extend(self.removal(scheme, config.settings.accuracy, progress));
             }
         }
-        let mut times: HashMap<(Scheme, usize), Vec<f64>> = HashMap::new();
-        for r in passes {
-            times
-                .entry((r.scheme, r.frame))
-                .or_default()
-                .push(r.seconds);
-        }
-        for r in rows.iter_mut().filter(|r| r.mode == Mode::Removal) {
-            r.take_median(&times[&(r.scheme, r.frame)]);
-        }
+        take_medians(rows, &passes);
     }
 
     /// The tolerance sweep with `scheme`: each tolerance's passes back to back, the first
@@ -382,18 +320,31 @@ impl Frames<'_> {
         let mut sweep = Vec::with_capacity(config.sweep.len());
         for &k in &config.sweep {
             let tolerance = k * config.settings.accuracy;
-            let mut runs: Vec<Vec<Row>> = (0..config.passes)
-                .map(|_| self.removal(scheme, tolerance, progress))
-                .collect();
-            let mut first = runs.remove(0);
-            for r in &mut first {
-                let mut t = vec![r.seconds];
-                t.extend(runs.iter().map(|run| run[r.frame].seconds));
-                r.take_median(&t);
+            let mut first = self.removal(scheme, tolerance, progress);
+            let mut passes = Vec::new();
+            for _ in 1..config.passes {
+                passes.extend(self.removal(scheme, tolerance, progress));
             }
+            take_medians(&mut first, &passes);
             sweep.push((tolerance, first));
         }
         sweep
+    }
+}
+
+/// Sets each removal row of `rows` to the median of its frame's times, its own and those of
+/// `passes` (further passes of the same frames).
+fn take_medians(rows: &mut [Row], passes: &[Row]) {
+    let removal = |r: &&Row| r.mode == Mode::Removal;
+    let mut times: HashMap<(Scheme, usize), Vec<f64>> = HashMap::new();
+    for r in rows.iter().filter(removal).chain(passes) {
+        times
+            .entry((r.scheme, r.frame))
+            .or_default()
+            .push(r.seconds);
+    }
+    for r in rows.iter_mut().filter(|r| r.mode == Mode::Removal) {
+        r.take_median(&times[&(r.scheme, r.frame)]);
     }
 }
 
@@ -406,7 +357,7 @@ fn near_margin(accuracy: f32) -> f32 {
     (face / (std::f32::consts::PI * accuracy)).sqrt()
 }
 
-/// Every frame's brute-force reference; and their seconds.
+/// Every frame's brute-force reference (scheme `none`); and their seconds.
 fn references(
     scenes: &[Scene],
     config: &DynamicConfig,
@@ -414,22 +365,13 @@ fn references(
     progress: &mut dyn FnMut(&str),
 ) -> (Vec<Image>, f64) {
     let n = scenes.len();
-    crate::harness::measure::timed(|| {
-        let mut references = Vec::with_capacity(n);
-        for (i, scene) in scenes.iter().enumerate() {
-            progress(&format!("reference frame {}/{n}", i + 1));
-            let camera = scene.camera();
-            let r = render_reference(
-                scene,
-                &camera,
-                &config.settings,
-                cache_config,
-                config.threads,
-            );
-            references.push(r.image);
-        }
-        references
-    })
+    let shot = |i: usize| {
+        progress(&format!("reference frame {}/{n}", i + 1));
+        (&scenes[i], scenes[i].camera(), None)
+    };
+    let settings = (&config.settings, config.threads);
+    let image = |_, out: FrameResult, _| out.image;
+    timed(|| render_sequence(Scheme::None, cache_config, settings, 0..n, shot, image))
 }
 
 /// Runs the experiment; `progress(label)` is called before every frame.
@@ -463,11 +405,8 @@ pub fn run(
         margin: near_margin(config.settings.accuracy),
         threads: config.threads,
     };
-    let keep: Vec<usize> = {
-        let mut k: Vec<usize> = (0..4).map(|j| j * (n - 1) / 3).collect();
-        k.dedup();
-        k
-    };
+    let mut keep: Vec<usize> = (0..4).map(|j| j * (n - 1) / 3).collect();
+    keep.dedup();
     let strip_scheme = if config.schemes.contains(&Scheme::Wf) {
         Scheme::Wf
     } else {
@@ -479,7 +418,7 @@ pub fn run(
     for &scheme in &config.schemes {
         for mode in Mode::ALL {
             // One cache for the whole animation, or (fresh) a new one for every frame.
-            let spans: Vec<std::ops::Range<usize>> = match mode {
+            let spans: Vec<Range<usize>> = match mode {
                 Mode::Fresh => (0..n).map(|i| i..i + 1).collect(),
                 _ => std::iter::once(0..n).collect(),
             };
@@ -551,22 +490,16 @@ impl Dynamic {
     fn frames_wf_lost(&self) -> Vec<String> {
         let mut lost = Vec::new();
         for i in 1..self.config.frames {
-            let of = |s: Scheme| {
-                self.rows_of(s, Mode::Removal)
-                    .find(|r| r.frame == i)
-                    .map(|r| r.seconds)
-            };
-            let wf = of(Scheme::Wf).unwrap_or(f64::INFINITY);
+            let of = |s| self.rows_of(s, Mode::Removal).find(|r| r.frame == i);
+            let wf = of(Scheme::Wf).map_or(f64::INFINITY, |r| r.seconds);
             for &s in &self.config.schemes {
                 if s == Scheme::Wf || s == Scheme::Tra {
                     continue;
                 }
-                if let Some(t) = of(s).filter(|&t| t < wf) {
+                if let Some(t) = of(s).map(|r| r.seconds).filter(|&t| t < wf) {
                     lost.push(format!(
-                        "frame {i}: {} {:.3} s < WF {:.3} s",
-                        s.heading(),
-                        t,
-                        wf
+                        "frame {i}: {} {t:.3} s < WF {wf:.3} s",
+                        s.heading()
                     ));
                 }
             }

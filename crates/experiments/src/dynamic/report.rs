@@ -2,14 +2,17 @@
 //! the time and error plot and the strip of frames.
 
 use super::{mean_after_first, Dynamic, Mode, Row};
+use crate::animation::{frame_figure, Series};
 use crate::harness::table::{pct, Table};
 use crate::harness::{Check, Output, Provenance};
-use crate::plot::{Figure, Line, Panel};
+use crate::plot::Figure;
+use image::RgbImage;
 use std::fmt::Write as _;
 use std::path::Path;
+use wfic::cache::Rgb8;
 use wfic_render::scenes::CORNELL_SLIDE;
 
-/// A summary of frames after the first: the table rows of both Markdown tables.
+/// A summary of frames after the first: a row of both Markdown tables.
 struct Summary<'a> {
     label: String,
     mode: Mode,
@@ -26,12 +29,29 @@ impl Summary<'_> {
         self.rows.iter().copied().rfind(|r| r.frame > 0)
     }
 
-    fn max_error(&self) -> f64 {
-        self.rows
-            .iter()
-            .filter(|r| r.frame > 0)
-            .map(|r| r.error)
-            .fold(0.0, f64::max)
+    /// A table of summaries: `head`'s columns, the means and the last frame's records,
+    /// `more`'s columns, then the error and the time against a fresh cache.
+    fn table<'t>(
+        head: Table<'t, Self>,
+        more: impl FnOnce(Table<'t, Self>) -> Table<'t, Self>,
+    ) -> Table<'t, Self> {
+        let mean = |f: fn(&Row) -> f64, digits| move |s: &Self| format!("{:.*}", digits, s.mean(f));
+        let t = head
+            .md("seconds", mean(|r| r.seconds, 3))
+            .md("IC samples", mean(|r| r.ic_samples as f64, 0))
+            .md("removed", mean(|r| r.removed as f64, 0))
+            .md("records (last)", |s| {
+                s.last().map_or(0, |r| r.records).to_string()
+            });
+        more(t)
+            .md("error mean", |s| pct(s.mean(|r| r.error)))
+            .md("error max", |s| {
+                let after_first = s.rows.iter().filter(|r| r.frame > 0);
+                pct(after_first.map(|r| r.error).fold(0.0, f64::max))
+            })
+            .md("time vs fresh", |s| {
+                format!("{:.2}x", s.fresh_seconds / s.mean(|r| r.seconds))
+            })
     }
 }
 
@@ -96,18 +116,17 @@ impl Dynamic {
     fn intro(&self) -> String {
         let s = &self.config.settings;
         let n = self.config.frames;
+        let (slide, margin) = (CORNELL_SLIDE.length() * 1000.0, self.margin * 1000.0);
         format!(
-            "`{}`: the Cornell box's short block slides {:.0} mm along the floor over {n} frames \
-             ({:.1} mm a frame); the camera stays. {}x{}, {} primary rays a pixel, {} rays a \
-             record, {} light samples, a = {}. Error: relative RMSE of luminance against each \
-             frame's brute-force image (scheme `none`, same seed and light samples) over the \
-             pixels that see a non-emitting surface; the references took {:.1} s.\n\n\
+            "`{}`: the Cornell box's short block slides {slide:.0} mm along the floor over {n} \
+             frames ({:.1} mm a frame); the camera stays. {}x{}, {} primary rays a pixel, {} \
+             rays a record, {} light samples, a = {}. Error: relative RMSE of luminance against \
+             each frame's brute-force image (scheme `none`); the references took {:.1} s.\n\n\
              How to read this page: docs/experiments.md#dynamic-scenes. Removal's margin: \
-             `removal` up to {:.0} mm, `removal-near` {:.0} mm. The removal mode ran {} times \
-             per scheme: its seconds are each frame's median (the CSV has the range).\n\n",
+             `removal` up to {margin:.0} mm, `removal-near` {margin:.0} mm. The removal mode ran \
+             {} times per scheme: its seconds are each frame's median (the CSV has the range).\n\n",
             self.config.scene,
-            CORNELL_SLIDE.length() * 1000.0,
-            CORNELL_SLIDE.length() * 1000.0 / (n - 1) as f32,
+            slide / (n - 1) as f32,
             s.width,
             s.height,
             s.pixel_samples,
@@ -115,8 +134,6 @@ impl Dynamic {
             s.light_samples,
             s.accuracy,
             self.reference_seconds,
-            self.margin * 1000.0,
-            self.margin * 1000.0,
             self.config.passes
         )
     }
@@ -140,29 +157,18 @@ impl Dynamic {
             }
         }
         let last = |s: &Summary| s.last().cloned().expect("a frame after the first");
-        let t = Table::new()
+        let head = Table::new()
             .md("scheme", |s: &Summary| s.label.clone())
             .left()
             .md("threads", |s| self.machine.count(last(s).threads))
             .md("mode", |s| s.mode.name().to_owned())
-            .left()
-            .md("seconds", |s| format!("{:.3}", s.mean(|r| r.seconds)))
-            .md("IC samples", |s| {
-                format!("{:.0}", s.mean(|r| r.ic_samples as f64))
-            })
-            .md("removed", |s| {
-                format!("{:.0}", s.mean(|r| r.removed as f64))
-            })
-            .md("records (last)", |s| last(s).records.to_string())
-            .md("nodes (last)", |s| last(s).nodes.to_string())
-            .md("memory est. (last)", |s| {
-                format!("{:.0} KiB", last(s).bytes() as f64 / 1024.0)
-            })
-            .md("error mean", |s| pct(s.mean(|r| r.error)))
-            .md("error max", |s| pct(s.max_error()))
-            .md("time vs fresh", |s| {
-                format!("{:.2}x", s.fresh_seconds / s.mean(|r| r.seconds))
-            });
+            .left();
+        let t = Summary::table(head, |t| {
+            t.md("nodes (last)", move |s| last(s).nodes.to_string())
+                .md("memory est. (last)", move |s| {
+                    format!("{:.0} KiB", last(s).bytes() as f64 / 1024.0)
+                })
+        });
         format!(
             "## Frames after the first (means over frames 1..{})\n\n{}",
             self.config.frames - 1,
@@ -189,23 +195,7 @@ impl Dynamic {
                 fresh_seconds,
             })
             .collect();
-        let t = Table::new()
-            .md("tolerance", |s: &Summary| s.label.clone())
-            .md("seconds", |s| format!("{:.3}", s.mean(|r| r.seconds)))
-            .md("IC samples", |s| {
-                format!("{:.0}", s.mean(|r| r.ic_samples as f64))
-            })
-            .md("removed", |s| {
-                format!("{:.0}", s.mean(|r| r.removed as f64))
-            })
-            .md("records (last)", |s| {
-                s.last().map_or(0, |r| r.records).to_string()
-            })
-            .md("error mean", |s| pct(s.mean(|r| r.error)))
-            .md("error max", |s| pct(s.max_error()))
-            .md("time vs fresh", |s| {
-                format!("{:.2}x", s.fresh_seconds / s.mean(|r| r.seconds))
-            });
+        let head = Table::new().md("tolerance", |s: &Summary| s.label.clone());
         let threads = self.config.threads_of(scheme);
         format!(
             "\n## Removal's tolerance ({}, {threads} threads{}; means over frames 1..{})\n\n\
@@ -214,7 +204,7 @@ impl Dynamic {
             self.star(threads),
             self.config.frames - 1,
             pct(fresh_error),
-            t.markdown(&summaries)
+            Summary::table(head, |t| t).markdown(&summaries)
         )
     }
 
@@ -250,106 +240,59 @@ impl Dynamic {
         md
     }
 
-    /// Time and error per frame, one line per scheme and mode.
+    /// Time and error per frame: removal, fresh and stale, per scheme (the other removal modes
+    /// are in the tables).
     pub fn figure(&self) -> Figure {
-        let n = self.config.frames;
-        let dash =
-            |c: wfic::cache::Rgb8, k: u16| c.map(|v| ((u16::from(v) + k * 255) / (k + 1)) as u8);
-        let (mut time, mut error, mut legend) = (Vec::new(), Vec::new(), Vec::new());
+        let dash = |c: Rgb8, k: u16| c.map(|v| ((u16::from(v) + k * 255) / (k + 1)) as u8);
+        let mut series = Vec::new();
         for &scheme in &self.config.schemes {
-            for mode in Mode::ALL {
-                let colour = match mode {
-                    Mode::Removal => scheme.colour(),
-                    Mode::RemovalNear | Mode::RemovalLocal | Mode::Fresh => {
-                        dash(scheme.colour(), 1)
-                    }
-                    Mode::Stale => dash(scheme.colour(), 2),
-                };
-                if matches!(mode, Mode::RemovalNear | Mode::RemovalLocal) {
-                    // Three lines a scheme are enough to read; its numbers are in the tables.
-                    continue;
-                }
-                let threads = self.machine.count(self.config.threads_of(scheme));
-                let label = format!(
-                    "{} {threads} {}",
-                    scheme.heading(),
-                    mode.name().to_uppercase()
-                );
-                legend.push((label.clone(), colour));
-                let rows: Vec<&Row> = self.rows_of(scheme, mode).collect();
-                let line = |label, y: fn(&Row) -> f64| Line {
-                    label,
-                    colour,
-                    points: rows.iter().map(|r| (r.frame as f64, y(r))).collect(),
+            let threads = self.machine.count(self.config.threads_of(scheme));
+            for (k, mode) in [(0, Mode::Removal), (1, Mode::Fresh), (2, Mode::Stale)] {
+                let name = mode.name().to_uppercase();
+                series.push(Series {
+                    label: format!("{} {threads} {name}", scheme.heading()),
+                    colour: dash(scheme.colour(), k),
                     markers: mode == Mode::Removal,
-                };
-                time.push(line(label.clone(), |r| r.seconds));
-                error.push(line(label, |r| 100.0 * r.error));
+                    points: (self.rows_of(scheme, mode))
+                        .map(|r| [r.frame as f64, r.seconds, 100.0 * r.error])
+                        .collect(),
+                });
             }
         }
-        let base = Panel {
-            x_range: (0.0, (n - 1) as f64),
-            x_label: "FRAME".into(),
-            legend,
-            ..Panel::default()
-        };
-        let threads = self.config.thread_counts();
-        Figure {
-            header: vec![
-                format!(
-                    "A SCENE THAT MOVES: {} ({} FRAMES), {}X{}; REMOVAL (DARK), FRESH (MID), STALE (LIGHT)",
-                    self.config.scene.to_uppercase(),
-                    n,
-                    self.config.settings.width,
-                    self.config.settings.height
-                ),
-                self.machine.banner(&threads),
+        let s = &self.config.settings;
+        let title = format!(
+            "A SCENE THAT MOVES: {} ({} FRAMES), {}X{}; REMOVAL (DARK), FRESH (MID), STALE (LIGHT)",
+            self.config.scene.to_uppercase(),
+            self.config.frames,
+            s.width,
+            s.height
+        );
+        frame_figure(
+            vec![title, self.machine.banner(&self.config.thread_counts())],
+            self.config.frames,
+            [
+                "ERROR AGAINST THE FRAME'S BRUTE-FORCE IMAGE",
+                "REL. RMSE (%)",
             ],
-            panels: vec![
-                Panel {
-                    title: "TIME PER FRAME".into(),
-                    left_label: "TIME (S)".into(),
-                    lines: time,
-                    ..base.clone()
-                },
-                Panel {
-                    title: "ERROR AGAINST THE FRAME'S BRUTE-FORCE IMAGE".into(),
-                    left_label: "REL. RMSE (%)".into(),
-                    lines: error,
-                    ..base
-                },
-            ],
-            columns: 1,
-            panel_size: (1200, 480),
-        }
+            series,
+            None,
+        )
     }
 
     /// The strip: one column per kept frame; rows removal, stale, reference, all at the
     /// reference's exposure.
-    pub fn strip_image(&self) -> Option<image::RgbImage> {
+    pub fn strip_image(&self) -> Option<RgbImage> {
         let (_, first, ..) = self.strip.first()?;
-        let (w, h) = (first.width(), first.height());
-        let gap = 4;
+        let (w, h, gap) = (first.width(), first.height(), 4);
         let cols = self.strip.len() as u32;
-        let mut out = image::RgbImage::from_pixel(
-            cols * (w + gap) - gap,
-            3 * (h + gap) - gap,
-            image::Rgb([255, 255, 255]),
-        );
-        for (c, (_, a, stale, reference)) in self.strip.iter().enumerate() {
+        let white = image::Rgb([255, 255, 255]);
+        let mut out = RgbImage::from_pixel(cols * (w + gap) - gap, 3 * (h + gap) - gap, white);
+        for (c, (_, a, stale, reference)) in (0..).zip(&self.strip) {
             let exposure = reference.auto_exposure();
-            for (r, img) in [a, stale, reference].into_iter().enumerate() {
-                let rgb = img.to_srgb8(exposure);
-                for y in 0..h {
-                    for x in 0..w {
-                        let k = 3 * (y * w + x) as usize;
-                        out.put_pixel(
-                            c as u32 * (w + gap) + x,
-                            r as u32 * (h + gap) + y,
-                            image::Rgb([rgb[k], rgb[k + 1], rgb[k + 2]]),
-                        );
-                    }
-                }
+            for (r, img) in (0..).zip([a, stale, reference]) {
+                let tile = RgbImage::from_raw(w, h, img.to_srgb8(exposure)).expect("w x h pixels");
+                let (x, y) = (c * (w + gap), r * (h + gap));
+                image::imageops::replace(&mut out, &tile, i64::from(x), i64::from(y));
             }
         }
         Some(out)
