@@ -200,8 +200,8 @@ pub struct Table1 {
     pub seconds: f64,
 }
 
-/// Runs one scene's schedule: an untimed warm-up frame, then the rounds, each with the control
-/// after its columns in even rounds and before them in odd ones; its measurements and control.
+/// Runs one scene's schedule: an untimed warm-up frame (pages, caches and the allocator see a
+/// frame before any timed one), then the rounds; its measurements and control.
 fn run_scene(
     config: &Table1Config,
     name: &str,
@@ -228,20 +228,24 @@ fn run_scene(
     };
     let rounds = config.rounds();
     for round in 0..rounds {
-        // `None` is the control.
+        // The control (`None`) follows the columns in even rounds and leads the reversed
+        // columns of odd ones, so it has no fixed neighbour either.
         let mut steps: Vec<_> = config.round_columns(round).into_iter().map(Some).collect();
         if config.controls {
             steps.insert(if round % 2 == 1 { 0 } else { steps.len() }, None);
         }
         for step in steps {
-            let Some((i, (scheme, threads))) = step else {
-                let round = (round, rounds);
-                control.render_round(&scene, &camera, settings, cache_config, round, progress);
-                continue;
-            };
-            let (s, r) = (scheme.name(), round + 1);
-            progress(&format!("{name} {s} {threads}t round {r}/{rounds}"));
-            runs[i].push(render((scheme, threads)));
+            match step {
+                Some((i, (scheme, threads))) => {
+                    let (s, r) = (scheme.name(), round + 1);
+                    progress(&format!("{name} {s} {threads}t round {r}/{rounds}"));
+                    runs[i].push(render((scheme, threads)));
+                }
+                None => {
+                    let round = (round, rounds);
+                    control.render_round(&scene, &camera, settings, cache_config, round, progress);
+                }
+            }
         }
     }
     let measurements = columns
@@ -305,9 +309,8 @@ impl Table1 {
             .map_or(f64::NAN, |tra| tra.time() / m.time())
     }
 
-    /// WF against LCK or LW at 2 threads on the per-round ratios: `yes` when their median is
-    /// at most 1, `tie` when it is above 1 but the interval contains 1, `NO` when the whole
-    /// interval is above 1.
+    /// WF against LCK or LW at 2 threads on the per-round ratios: `yes` at a median of at most
+    /// 1, `tie` while the interval still contains 1, else `NO`.
     fn rival_check(&self, scene: &str, wf: &Measurement, rival: Scheme) -> Option<Check> {
         let r = self.get(scene, rival, CHECK_THREADS)?;
         let p = paired_ratio(&wf.times(), &r.times())?;
