@@ -165,22 +165,14 @@ impl Measurement {
         self.median(|s| s.ic_samples as f64)
     }
 
-    /// The paper's overhead column: lock-wait seconds (LCK), merge seconds (LW), discarded
-    /// samples (WF); 0 for TRA.
-    pub fn overhead(&self) -> f64 {
-        match self.scheme {
-            Scheme::Lck | Scheme::LckRw => self.median(|s| s.lock_wait_seconds),
-            Scheme::Lw => self.median(|s| s.merge_seconds),
-            Scheme::Wf | Scheme::WfDiscard => self.median(|s| s.discarded as f64),
-            Scheme::Tra | Scheme::None => 0.0,
-        }
-    }
-
+    /// The paper's overhead column, as the table prints it: median lock-wait seconds (LCK),
+    /// merge seconds (LW), discarded samples (WF); 0 for TRA.
     fn overhead_text(&self) -> String {
         match self.scheme {
-            Scheme::Wf | Scheme::WfDiscard => format!("{}", self.overhead()),
+            Scheme::Lck | Scheme::LckRw => format!("{:.4}", self.median(|s| s.lock_wait_seconds)),
+            Scheme::Lw => format!("{:.4}", self.median(|s| s.merge_seconds)),
+            Scheme::Wf | Scheme::WfDiscard => self.median(|s| s.discarded as f64).to_string(),
             Scheme::Tra | Scheme::None => "0".to_owned(),
-            _ => format!("{:.4}", self.overhead()),
         }
     }
 }
