@@ -93,7 +93,7 @@ pub struct DistributedArgs {
     pub runs: Option<usize>,
     /// The batch sizes of the sweep (default 4,16,64,256,1024,4096; quick 16,256,4096).
     #[arg(long, value_delimiter = ',')]
-    pub batches: Vec<usize>,
+    pub batches: Option<Vec<usize>>,
     /// The main jobs' batch size.
     #[arg(long, default_value_t = 256)]
     pub batch_records: usize,
@@ -131,10 +131,10 @@ pub struct DynamicArgs {
     pub passes: Option<usize>,
     /// Removal tolerances swept with WF, in multiples of a (default 0.5,2,4,8; quick 4).
     #[arg(long, value_delimiter = ',')]
-    pub sweep: Vec<f32>,
+    pub sweep: Option<Vec<f32>>,
     /// Schemes (default: tra, lck, lw, wf).
     #[arg(long, value_parser = crate::render_cli::scheme_parser(), value_delimiter = ',')]
-    pub schemes: Vec<Scheme>,
+    pub schemes: Option<Vec<Scheme>>,
     /// Image size (default 128, quick 64).
     #[command(flatten)]
     pub size: SizeArgs,
@@ -187,10 +187,10 @@ pub struct Table1Args {
     pub quick: bool,
     /// Scenes (default: all five).
     #[arg(long, value_delimiter = ',')]
-    pub scenes: Vec<String>,
+    pub scenes: Option<Vec<String>>,
     /// Parallel schemes (default: lck, lck-rw, lw, wf, wf-discard; TRA always runs on 1 thread).
     #[arg(long, value_parser = crate::render_cli::scheme_parser(), value_delimiter = ',')]
-    pub schemes: Vec<Scheme>,
+    pub schemes: Option<Vec<Scheme>>,
     /// Thread counts of the parallel schemes.
     #[arg(long, value_delimiter = ',', default_value = "2,4,8")]
     pub threads: Vec<usize>,
@@ -229,7 +229,7 @@ pub struct AnimationArgs {
     pub threads: usize,
     /// Schemes (default: tra, lck, lck-rw, lw, wf, wf-discard).
     #[arg(long, value_parser = crate::render_cli::scheme_parser(), value_delimiter = ',')]
-    pub schemes: Vec<Scheme>,
+    pub schemes: Option<Vec<Scheme>>,
     /// Image size (default 160).
     #[command(flatten)]
     pub size: SizeArgs,
@@ -246,17 +246,6 @@ fn or_quick<T>(value: Option<T>, quick: bool, (q, full): (T, T)) -> T {
     value.unwrap_or(if quick { q } else { full })
 }
 
-/// A list argument, or its default (quick or full) when empty.
-fn list_or<T: Clone>(given: &[T], quick: bool, (q, full): (&[T], &[T])) -> Vec<T> {
-    if !given.is_empty() {
-        given.to_vec()
-    } else if quick {
-        q.to_vec()
-    } else {
-        full.to_vec()
-    }
-}
-
 /// Prints the checks as `yes claim: figures` lines.
 fn print_checks(checks: &[Check]) {
     for c in checks {
@@ -267,20 +256,19 @@ fn print_checks(checks: &[Check]) {
 fn table1(a: Table1Args, machine: &Machine) -> Result<(), String> {
     let (w, h) = a.size.get(if a.quick { 160 } else { 320 })?;
     let runs = or_quick(a.runs, a.quick, (3, 5));
-    let mut config = Table1Config::paper(w, h, runs);
-    // An explicit --paired-runs below --runs is refused by `table1::run`; the default never is.
-    config.paired_runs = a
-        .paired_runs
-        .unwrap_or_else(|| runs.max(if a.quick { 11 } else { 15 }));
-    config.settings = a.sampling.settings((w, h))?;
-    if !a.scenes.is_empty() {
-        config.scenes = a.scenes.clone();
-    }
-    if !a.schemes.is_empty() {
-        config.schemes = a.schemes.clone();
-    }
-    config.threads = a.threads.clone();
-    config.controls = a.controls.unwrap_or(true);
+    let paper = Table1Config::paper(w, h, runs);
+    let config = Table1Config {
+        scenes: a.scenes.unwrap_or(paper.scenes),
+        schemes: a.schemes.unwrap_or(paper.schemes),
+        threads: a.threads,
+        // An explicit --paired-runs below --runs is refused by `table1::run`; the default never is.
+        paired_runs: a
+            .paired_runs
+            .unwrap_or(runs.max(if a.quick { 11 } else { 15 })),
+        settings: a.sampling.settings((w, h))?,
+        controls: a.controls.unwrap_or(true),
+        ..paper
+    };
     println!("{}", machine.banner(&config.thread_counts()));
     let progress = Progress::new(config.total_frames(), a.output.quiet);
     let t = progress.run(|p| table1::run(&config, machine, p))?;
@@ -320,10 +308,10 @@ fn distributed(a: DistributedArgs, machine: &Machine) -> Result<(), String> {
         scene: a.scene.clone(),
         settings,
         runs: or_quick(a.runs, a.quick, (1, 3)),
-        batches: list_or(
-            &a.batches,
+        batches: or_quick(
+            a.batches,
             a.quick,
-            (&[16, 256, 4096], &[4, 16, 64, 256, 1024, 4096]),
+            (vec![16, 256, 4096], vec![4, 16, 64, 256, 1024, 4096]),
         ),
         batch_ms: a.batch_ms,
         batch_records: a.batch_records,
@@ -355,15 +343,16 @@ fn dynamic(a: DynamicArgs, machine: &Machine) -> Result<(), String> {
         sampling.spp = 1;
         sampling.rays_per_record = sampling.rays_per_record.min(128);
     }
-    let all = [Scheme::Tra, Scheme::Lck, Scheme::Lw, Scheme::Wf];
     let config = DynamicConfig {
         scene: a.scene.clone(),
         frames: or_quick(a.frames, a.quick, (8, 24)),
         threads: a.threads,
-        schemes: list_or(&a.schemes, false, (&all, &all)),
+        schemes: a
+            .schemes
+            .unwrap_or(vec![Scheme::Tra, Scheme::Lck, Scheme::Lw, Scheme::Wf]),
         settings: sampling.settings((w, h))?.quiet(true),
         passes: or_quick(a.passes, a.quick, (1, 3)),
-        sweep: list_or(&a.sweep, a.quick, (&[4.0], &[0.5, 2.0, 4.0, 8.0])),
+        sweep: or_quick(a.sweep, a.quick, (vec![4.0], vec![0.5, 2.0, 4.0, 8.0])),
     };
     println!("{}", machine.banner(&config.thread_counts()));
     let progress = Progress::new(config.total_frames(), a.output.quiet);
@@ -385,7 +374,7 @@ fn animation(a: AnimationArgs, machine: &Machine) -> Result<(), String> {
         scene: a.scene.clone(),
         frames: a.frames,
         threads: a.threads,
-        schemes: list_or(&a.schemes, false, (&Scheme::CACHED, &Scheme::CACHED)),
+        schemes: a.schemes.unwrap_or(Scheme::CACHED.to_vec()),
         settings: a.sampling.settings((w, h))?,
     };
     println!("{}", machine.banner(&config.thread_counts()));

@@ -26,8 +26,8 @@ pub struct Table1Config {
     pub threads: Vec<usize>,
     /// Timed runs per configuration.
     pub runs: usize,
-    /// Timed runs (rounds) of the columns the checks compare: LCK, LW and WF at
-    /// [`CHECK_THREADS`] threads. At least `runs`; the extra rounds render only those columns.
+    /// Timed runs (rounds) of the columns the checks compare ([`Self::is_paired`]); at least
+    /// `runs`, the extra rounds rendering only those columns.
     pub paired_runs: usize,
     /// Image size and sampling.
     pub settings: RenderSettings,
@@ -40,13 +40,7 @@ impl Table1Config {
     pub fn paper(width: u32, height: u32, runs: usize) -> Self {
         Self {
             scenes: scenes::NAMES.iter().map(|s| s.to_string()).collect(),
-            schemes: vec![
-                Scheme::Lck,
-                Scheme::LckRw,
-                Scheme::Lw,
-                Scheme::Wf,
-                Scheme::WfDiscard,
-            ],
+            schemes: Scheme::CACHED[1..].to_vec(),
             threads: vec![2, 4, 8],
             runs,
             paired_runs: runs,
@@ -55,17 +49,21 @@ impl Table1Config {
         }
     }
 
+    /// The parallel schemes run: [`Self::schemes`] without TRA and `none`.
+    fn parallel_schemes(&self) -> impl Iterator<Item = Scheme> + '_ {
+        self.schemes
+            .iter()
+            .copied()
+            .filter(|&s| s != Scheme::Tra && s != Scheme::None)
+    }
+
     /// `(scheme, threads)` of every column, TRA first.
     pub fn columns(&self) -> Vec<(Scheme, usize)> {
-        let mut cols = vec![(Scheme::Tra, 1)];
-        for &t in &self.threads {
-            for &s in &self.schemes {
-                if s != Scheme::Tra && s != Scheme::None {
-                    cols.push((s, t));
-                }
-            }
-        }
-        cols
+        let parallel = self
+            .threads
+            .iter()
+            .flat_map(|&t| self.parallel_schemes().map(move |s| (s, t)));
+        std::iter::once((Scheme::Tra, 1)).chain(parallel).collect()
     }
 
     /// Whether the checks compare column `(scheme, threads)` (it gets [`Self::paired_runs`]):
@@ -80,7 +78,8 @@ impl Table1Config {
         self.runs.max(self.paired_runs)
     }
 
-    /// The columns rendered in round `round` (0-based), in the order they are rendered.
+    /// The columns rendered in round `round` (0-based) with their index, in rendering order:
+    /// odd rounds reversed, so no column always follows the same neighbour.
     pub fn round_columns(&self, round: usize) -> Vec<(usize, (Scheme, usize))> {
         let mut cols: Vec<(usize, (Scheme, usize))> = self
             .columns()
@@ -105,9 +104,24 @@ impl Table1Config {
 
     /// Every thread count of the run, TRA's one first.
     pub fn thread_counts(&self) -> Vec<usize> {
-        let mut t = vec![1];
-        t.extend(&self.threads);
-        t
+        std::iter::once(1)
+            .chain(self.threads.iter().copied())
+            .collect()
+    }
+
+    /// Refuses a configuration that cannot run.
+    fn validate(&self) -> Result<(), String> {
+        if self.runs == 0 {
+            return Err("--runs must be at least 1".to_owned());
+        }
+        if self.paired_runs < self.runs {
+            let (p, r) = (self.paired_runs, self.runs);
+            return Err(format!("--paired-runs {p} is fewer than --runs {r}"));
+        }
+        if self.threads.contains(&0) {
+            return Err("thread counts must be at least 1".to_owned());
+        }
+        Ok(())
     }
 }
 
@@ -151,22 +165,14 @@ impl Measurement {
         self.median(|s| s.ic_samples as f64)
     }
 
-    /// The paper's overhead column: lock-wait seconds (LCK), merge seconds (LW), discarded
-    /// samples (WF); 0 for TRA.
-    pub fn overhead(&self) -> f64 {
-        match self.scheme {
-            Scheme::Lck | Scheme::LckRw => self.median(|s| s.lock_wait_seconds),
-            Scheme::Lw => self.median(|s| s.merge_seconds),
-            Scheme::Wf | Scheme::WfDiscard => self.median(|s| s.discarded as f64),
-            Scheme::Tra | Scheme::None => 0.0,
-        }
-    }
-
+    /// The paper's overhead column, as the table prints it: median lock-wait seconds (LCK),
+    /// merge seconds (LW), discarded samples (WF); 0 for TRA.
     fn overhead_text(&self) -> String {
         match self.scheme {
-            Scheme::Wf | Scheme::WfDiscard => format!("{}", self.overhead()),
+            Scheme::Lck | Scheme::LckRw => format!("{:.4}", self.median(|s| s.lock_wait_seconds)),
+            Scheme::Lw => format!("{:.4}", self.median(|s| s.merge_seconds)),
+            Scheme::Wf | Scheme::WfDiscard => self.median(|s| s.discarded as f64).to_string(),
             Scheme::Tra | Scheme::None => "0".to_owned(),
-            _ => format!("{:.4}", self.overhead()),
         }
     }
 }
@@ -186,24 +192,8 @@ pub struct Table1 {
     pub seconds: f64,
 }
 
-/// Refuses a configuration that cannot run.
-fn validate(config: &Table1Config) -> Result<(), String> {
-    if config.runs == 0 {
-        return Err("--runs must be at least 1".to_owned());
-    }
-    if config.paired_runs < config.runs {
-        return Err(format!(
-            "--paired-runs {} is fewer than --runs {}",
-            config.paired_runs, config.runs
-        ));
-    }
-    if config.threads.contains(&0) {
-        return Err("thread counts must be at least 1".to_owned());
-    }
-    Ok(())
-}
-
-/// Runs one scene's schedule: a warm-up, then the rounds; its measurements and control.
+/// Runs one scene's schedule: an untimed warm-up frame (pages, caches and the allocator see a
+/// frame before any timed one), then the rounds; its measurements and control.
 fn run_scene(
     config: &Table1Config,
     name: &str,
@@ -211,24 +201,16 @@ fn run_scene(
 ) -> Result<(Vec<Measurement>, Controls), String> {
     let columns = config.columns();
     let scene = scenes::load(name)?;
-    let cache_config = config
-        .settings
+    let settings = &config.settings;
+    let cache_config = settings
         .cache_config(&scene)
         .map_err(|e| format!("{name}: {e}"))?;
     let camera = scene.camera();
     let render = |(scheme, threads): (Scheme, usize)| {
-        render_with_scheme(
-            scheme,
-            &scene,
-            &camera,
-            &config.settings,
-            cache_config,
-            threads,
-        )
-        .0
-        .stats
+        render_with_scheme(scheme, &scene, &camera, settings, cache_config, threads)
+            .0
+            .stats
     };
-    // Untimed warm-up: pages, caches and the allocator see a frame before any timed one.
     progress(&format!("{name} warm-up"));
     render(columns.get(1).copied().unwrap_or((Scheme::Tra, 1)));
     let mut runs: Vec<Vec<FrameStats>> = vec![Vec::new(); columns.len()];
@@ -238,34 +220,24 @@ fn run_scene(
     };
     let rounds = config.rounds();
     for round in 0..rounds {
-        // The control comes after the columns in even rounds and before them in odd ones
-        // (whose columns run reversed), so it too has no fixed neighbour.
-        let render_control = |control: &mut Controls, progress: &mut dyn FnMut(&str)| {
-            if config.controls {
-                let settings = &config.settings;
-                control.render_round(
-                    &scene,
-                    &camera,
-                    settings,
-                    cache_config,
-                    (round, rounds),
-                    progress,
-                );
+        // The control (`None`) follows the columns in even rounds and leads the reversed
+        // columns of odd ones, so it has no fixed neighbour either.
+        let mut steps: Vec<_> = config.round_columns(round).into_iter().map(Some).collect();
+        if config.controls {
+            steps.insert(if round % 2 == 1 { 0 } else { steps.len() }, None);
+        }
+        for step in steps {
+            match step {
+                Some((i, (scheme, threads))) => {
+                    let (s, r) = (scheme.name(), round + 1);
+                    progress(&format!("{name} {s} {threads}t round {r}/{rounds}"));
+                    runs[i].push(render((scheme, threads)));
+                }
+                None => {
+                    let round = (round, rounds);
+                    control.render_round(&scene, &camera, settings, cache_config, round, progress);
+                }
             }
-        };
-        if round % 2 == 1 {
-            render_control(&mut control, progress);
-        }
-        for (i, (scheme, threads)) in config.round_columns(round) {
-            progress(&format!(
-                "{name} {} {threads}t round {}/{rounds}",
-                scheme.name(),
-                round + 1,
-            ));
-            runs[i].push(render((scheme, threads)));
-        }
-        if round % 2 == 0 {
-            render_control(&mut control, progress);
         }
     }
     let measurements = columns
@@ -287,16 +259,13 @@ pub fn run(
     machine: &Machine,
     progress: &mut dyn FnMut(&str),
 ) -> Result<Table1, String> {
-    validate(config)?;
+    config.validate()?;
     let start = std::time::Instant::now();
-    let mut measurements = Vec::new();
-    let mut controls = Vec::new();
+    let (mut measurements, mut controls) = (Vec::new(), Vec::new());
     for name in &config.scenes {
         let (m, control) = run_scene(config, name, progress)?;
         measurements.extend(m);
-        if config.controls {
-            controls.push(control);
-        }
+        controls.extend(config.controls.then_some(control));
     }
     Ok(Table1 {
         config: config.clone(),
@@ -314,13 +283,9 @@ impl Table1 {
         let tra = self.get(scene, Scheme::Tra, 1)?;
         let wf = self.get(scene, Scheme::Wf, CHECK_THREADS)?;
         let c = self.controls.iter().find(|c| c.scene == scene)?;
-        SpeedupAnalysis::new(
-            scene,
-            (&tra.times(), &wf.times()),
-            c,
-            wf.median(|s| s.idle_share()),
-            wf.samples() / tra.samples(),
-        )
+        let idle = wf.median(|s| s.idle_share());
+        let samples = wf.samples() / tra.samples();
+        SpeedupAnalysis::new(scene, (&tra.times(), &wf.times()), c, idle, samples)
     }
 
     /// The measurement of `scene`, `scheme`, `threads`.
@@ -336,22 +301,20 @@ impl Table1 {
             .map_or(f64::NAN, |tra| tra.time() / m.time())
     }
 
-    /// WF against LCK or LW at 2 threads on the per-round ratios: `yes` when their median is
-    /// at most 1, `tie` when it is above 1 but the interval contains 1, `NO` when the whole
-    /// interval is above 1.
+    /// WF against LCK or LW at 2 threads on the per-round ratios: `yes` at a median of at most
+    /// 1, `tie` while the interval still contains 1, else `NO`.
     fn rival_check(&self, scene: &str, wf: &Measurement, rival: Scheme) -> Option<Check> {
         let r = self.get(scene, rival, CHECK_THREADS)?;
         let p = paired_ratio(&wf.times(), &r.times())?;
-        let verdict = if p.median <= 1.0 {
-            Verdict::Yes
-        } else if p.lo <= 1.0 {
-            Verdict::Tie
-        } else {
-            Verdict::No
+        let verdict = match (p.median <= 1.0, p.lo <= 1.0) {
+            (true, _) => Verdict::Yes,
+            (false, true) => Verdict::Tie,
+            (false, false) => Verdict::No,
         };
+        let rv = rival.heading();
         Some(Check::new(
             scene,
-            format!("WF no slower than {} at 2 threads", rival.heading()),
+            format!("WF no slower than {rv} at 2 threads"),
             verdict,
             format!(
                 "WF/{rv} per round: median {:.4} ({:.0}% interval {:.4}–{:.4}, {} rounds); \
@@ -363,7 +326,6 @@ impl Table1 {
                 p.n,
                 wf.time(),
                 r.time(),
-                rv = rival.heading(),
             ),
         ))
     }
@@ -375,16 +337,17 @@ impl Table1 {
     pub fn checks(&self) -> Vec<Check> {
         let mut out = Vec::new();
         for scene in &self.config.scenes {
-            let (Some(wf), Some(_tra)) = (
-                self.get(scene, Scheme::Wf, CHECK_THREADS),
-                self.get(scene, Scheme::Tra, 1),
-            ) else {
+            let Some(wf) = self.get(scene, Scheme::Wf, CHECK_THREADS) else {
                 continue;
             };
+            if self.get(scene, Scheme::Tra, 1).is_none() {
+                continue;
+            }
             let s = self.speedup(wf);
+            let claim = "WF speed-up over TRA at 2 threads >= 1.8";
             out.push(Check::new(
                 scene,
-                "WF speed-up over TRA at 2 threads >= 1.8",
+                claim,
                 Verdict::of(s >= 1.8),
                 format!("{s:.3}"),
             ));

@@ -53,7 +53,10 @@ impl Table1 {
             .iter()
             .filter_map(|&(sc, t)| self.get(scene, sc, t))
             .collect();
-        let over = |t: usize| star(self.machine.oversubscribed(t));
+        let column = |m: &Measurement| {
+            let over = star(self.machine.oversubscribed(m.threads));
+            format!("{} {}{over}", m.scheme.heading(), m.threads)
+        };
         type Metric<'m> = (&'static str, Box<dyn Fn(&Measurement) -> String + 'm>);
         let metrics: Vec<Metric> = vec![
             ("Time (s)", Box::new(|m| format!("{:.3}", m.time()))),
@@ -67,8 +70,7 @@ impl Table1 {
         ];
         let mut t = Table::new().md("", |r: &Metric| r.0.to_owned()).left();
         for &m in &ms {
-            let heading = format!("{} {}{}", m.scheme.heading(), m.threads, over(m.threads));
-            t = t.md(&heading, move |r: &Metric| (r.1)(m));
+            t = t.md(&column(m), move |r: &Metric| (r.1)(m));
         }
         let mut md = format!("## {scene}\n\n{}\n", t.markdown(&metrics));
         if paper::cell(scene, Scheme::Tra, 1).is_some() {
@@ -78,9 +80,7 @@ impl Table1 {
                 .collect();
             type Pair<'m> = (&'m Measurement, paper::PaperCell);
             let t = Table::new()
-                .md("column", |(m, _): &Pair| {
-                    format!("{} {}{}", m.scheme.heading(), m.threads, over(m.threads))
-                })
+                .md("column", |(m, _): &Pair| column(m))
                 .left()
                 .md("paper time (s)", |(_, p)| format!("{:.3}", p.time))
                 .md("ours", |(m, _)| format!("{:.3}", m.time()))
@@ -242,82 +242,59 @@ impl Table1 {
     /// bars (right axis), x = threads; oversubscribed thread counts shaded.
     pub fn figure(&self) -> Figure {
         let threads = self.config.thread_counts();
-        let xs: Vec<f64> = (0..threads.len()).map(|i| i as f64).collect();
-        let schemes: Vec<Scheme> = self
-            .config
-            .schemes
-            .iter()
-            .copied()
-            .filter(|s| *s != Scheme::Tra && *s != Scheme::None)
-            .collect();
+        let schemes: Vec<Scheme> = self.config.parallel_schemes().collect();
         let bar_w = 0.8 / (schemes.len().max(1) as f64);
+        let line = |scheme: Scheme, points| Line {
+            label: scheme.heading().into(),
+            colour: scheme.colour(),
+            points,
+            markers: true,
+        };
+        let bar = |x, width, value, scheme: Scheme| Bar {
+            x,
+            width,
+            value,
+            colour: scheme.colour(),
+        };
+        let x_end = threads.len() as f64 - 0.5;
         let mut panels = Vec::new();
         for scene in &self.config.scenes {
-            let tra = self.get(scene, Scheme::Tra, 1);
-            let mut lines = Vec::new();
-            let mut bars = Vec::new();
-            let mut legend = vec![("TRA".to_owned(), Scheme::Tra.colour())];
-            if let Some(tra) = tra {
-                lines.push(Line {
-                    label: "TRA".into(),
-                    colour: Scheme::Tra.colour(),
-                    points: vec![(0.0, tra.time())],
-                    markers: true,
-                });
-                bars.push(Bar {
-                    x: 0.0,
-                    width: bar_w,
-                    value: 1.0,
-                    colour: Scheme::Tra.colour(),
-                });
+            let (mut lines, mut bars) = (Vec::new(), Vec::new());
+            if let Some(tra) = self.get(scene, Scheme::Tra, 1) {
+                lines.push(line(Scheme::Tra, vec![(0.0, tra.time())]));
+                bars.push(bar(0.0, bar_w, 1.0, Scheme::Tra));
             }
             for (k, &scheme) in schemes.iter().enumerate() {
-                legend.push((scheme.heading().to_owned(), scheme.colour()));
+                let off = (k as f64 - (schemes.len() as f64 - 1.0) / 2.0) * bar_w;
                 let mut points = Vec::new();
                 for (i, &t) in threads.iter().enumerate().skip(1) {
                     if let Some(m) = self.get(scene, scheme, t) {
-                        points.push((xs[i], m.time()));
-                        let off = (k as f64 - (schemes.len() as f64 - 1.0) / 2.0) * bar_w;
-                        bars.push(Bar {
-                            x: xs[i] + off,
-                            width: bar_w * 0.9,
-                            value: self.speedup(m),
-                            colour: scheme.colour(),
-                        });
+                        points.push((i as f64, m.time()));
+                        bars.push(bar(i as f64 + off, bar_w * 0.9, self.speedup(m), scheme));
                     }
                 }
-                lines.push(Line {
-                    label: scheme.heading().into(),
-                    colour: scheme.colour(),
-                    points,
-                    markers: true,
-                });
+                lines.push(line(scheme, points));
             }
             let first_over = threads.iter().position(|&t| self.machine.oversubscribed(t));
-            let shaded = first_over
-                .map(|i| {
-                    vec![(
-                        xs[i] - 0.5,
-                        xs.len() as f64 - 0.5,
-                        format!("OVERSUBSCRIBED: > {} CORES", self.machine.cores),
-                    )]
-                })
-                .unwrap_or_default();
+            let over = format!("OVERSUBSCRIBED: > {} CORES", self.machine.cores);
             panels.push(Panel {
                 title: scene.to_uppercase(),
-                x_range: (-0.5, xs.len() as f64 - 0.5),
+                x_range: (-0.5, x_end),
                 x_ticks: threads
                     .iter()
                     .enumerate()
-                    .map(|(i, &t)| (xs[i], self.machine.count(t)))
+                    .map(|(i, &t)| (i as f64, self.machine.count(t)))
                     .collect(),
                 x_label: "THREADS".into(),
                 left_label: "LINES: TIME (S)".into(),
                 lines,
                 right_label: Some("BARS: SPEED-UP VS TRA".into()),
                 bars,
-                shaded,
-                legend,
+                shaded: first_over.map_or(vec![], |i| vec![(i as f64 - 0.5, x_end, over)]),
+                legend: std::iter::once(Scheme::Tra)
+                    .chain(schemes.iter().copied())
+                    .map(|s| (s.heading().to_owned(), s.colour()))
+                    .collect(),
                 ..Panel::default()
             });
         }
