@@ -3,8 +3,11 @@
 //! geometry (`Cell::octant`, `Cell::child`, `Geometry::placement_depth`, `Geometry::loose_contains`),
 //! never a cache's own traversal.
 //!
-//! The claim it rests on, for every scheme: **a node exists iff it lies on the root-to-placement
-//! path of some stored record.** No scheme ever removes a node or a record, and:
+//! The claim it rests on, for every scheme, while nothing has been removed, and again once the
+//! frames that removed have closed (their reclamation prunes every node left off the surviving
+//! records' paths; the shuttle removal workload checks exactly that): **a node exists iff it lies
+//! on the root-to-placement path of some stored record.** Between a removal and its frame's close
+//! a node can outlive its records. For inserts:
 //! - TRA, LCK, and LW's local and global octrees (`Octree::insert_admitted`) create exactly the
 //!   missing nodes on the path of the record they then store; LW's merge re-inserts every local
 //!   record into the global octree through the same function.
@@ -19,8 +22,8 @@
 //!
 //! A lookup at `p` visits the root and, below it, each node whose loose cell holds `p` and whose
 //! parent it visited. Loose cells nest, so that is every node whose loose cell holds `p`; counting
-//! the nodes whose every ancestor also holds `p` says the same without relying on it. The tree only
-//! grows, so a lookup made while inserts ran visits at most [`TreeShape::reach`] of the final
+//! the nodes whose every ancestor also holds `p` says the same without relying on it. Without
+//! removal the tree only grows, so a lookup made while inserts ran visits at most [`TreeShape::reach`] of the final
 //! records' shape, and examines at most the records stored in those nodes; a lookup made when
 //! nothing runs visits and examines exactly that.
 #![allow(dead_code)]
