@@ -416,7 +416,6 @@ pub fn run(
     let scene: Scene = scenes::load(&config.scene)?;
     let launcher = Launcher::find()?;
     let bin = config.radiance.then(RadianceBin::find).transpose()?;
-    std::fs::create_dir_all(out_dir).map_err(|e| format!("{}: {e}", out_dir.display()))?;
     let work = out_dir.join("work-distributed");
     std::fs::create_dir_all(&work).map_err(|e| format!("{}: {e}", work.display()))?;
     let s = &config.settings;
@@ -437,8 +436,8 @@ pub fn run(
     let sweep = config
         .batches
         .iter()
-        .map(|&b| measure(DistributedConfig::sweep_layout(b)));
-    let sweep = sweep.collect::<Result<_, _>>()?;
+        .map(|&b| DistributedConfig::sweep_layout(b));
+    let sweep = sweep.map(&mut measure).collect::<Result<_, _>>()?;
     let animations = if config.animation_frames > 1 {
         bench.animate(&ref_settings, progress)?
     } else {
@@ -477,20 +476,18 @@ impl Distributed {
     /// The exchange-cost model calibrated from the measured jobs: seconds of inserting one
     /// received record (all jobs that received any), and bytes per record on the wire.
     pub fn calibration(&self) -> (f64, f64) {
-        let (mut secs, mut recs, mut bytes) = (0.0, 0u64, 0u64);
-        for j in self
-            .jobs
-            .iter()
-            .chain(&self.sweep)
-            .filter(|j| j.received > 0)
-        {
-            secs += j.insert_seconds;
-            recs += j.received;
-            bytes += j.bytes;
-        }
+        let exchanged = || {
+            self.jobs
+                .iter()
+                .chain(&self.sweep)
+                .filter(|j| j.received > 0)
+        };
+        let recs: u64 = exchanged().map(|j| j.received).sum();
         if recs == 0 {
             return (0.0, 0.0);
         }
+        let secs: f64 = exchanged().map(|j| j.insert_seconds).sum();
+        let bytes: u64 = exchanged().map(|j| j.bytes).sum();
         (secs / recs as f64, bytes as f64 / recs as f64)
     }
 

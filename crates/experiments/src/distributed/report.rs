@@ -33,8 +33,8 @@ struct Row<'a> {
 }
 
 impl<'a> Row<'a> {
-    /// A line of `layout` with the figures of one frame.
-    fn frame(group: String, l: &Layout, seconds: f64, records: u64, dup: u64, bytes: u64) -> Self {
+    /// A line of `layout`, its figures blank.
+    fn new(group: String, l: &Layout) -> Self {
         Self {
             group,
             label: l.label.to_owned(),
@@ -42,28 +42,35 @@ impl<'a> Row<'a> {
             threads: l.threads,
             share: l.share,
             batch: Some((l.batch_records, l.batch_ms)),
-            seconds,
-            records,
-            duplicates: Some(dup),
-            bytes,
+            seconds: 0.0,
+            records: 0,
+            duplicates: None,
+            bytes: 0,
             error: None,
             job: None,
         }
     }
 
     fn job(group: &str, j: &'a Job) -> Self {
-        let frame = Self::frame(
-            group.to_owned(),
-            &j.layout,
-            j.seconds,
-            j.total(),
-            j.duplicates,
-            j.bytes,
-        );
         Self {
+            seconds: j.seconds,
+            records: j.total(),
+            duplicates: Some(j.duplicates),
+            bytes: j.bytes,
             error: Some(j.error),
             job: Some(j),
-            ..frame
+            ..Self::new(group.to_owned(), &j.layout)
+        }
+    }
+
+    /// A line of an animation's frame `i`.
+    fn frame(i: usize, l: &Layout, f: &DistributedFrameStats) -> Self {
+        Self {
+            seconds: f.seconds,
+            records: f.records_computed,
+            duplicates: Some(f.duplicates),
+            bytes: bytes_sent(f),
+            ..Self::new(format!("animation frame {i}"), l)
         }
     }
 
@@ -147,17 +154,8 @@ impl Distributed {
         let mut rows: Vec<Row> = self.jobs.iter().map(|j| Row::job("layout", j)).collect();
         rows.extend(self.sweep.iter().map(|j| Row::job("sweep", j)));
         for a in &self.animations {
-            rows.extend(a.frames.iter().enumerate().map(|(i, f)| {
-                let group = format!("animation frame {i}");
-                Row::frame(
-                    group,
-                    &a.layout,
-                    f.seconds,
-                    f.records_computed,
-                    f.duplicates,
-                    bytes_sent(f),
-                )
-            }));
+            let frames = a.frames.iter().enumerate();
+            rows.extend(frames.map(|(i, f)| Row::frame(i, &a.layout, f)));
         }
         rows.extend(self.radiance.iter().flat_map(|(r, _)| r).map(Row::radiance));
         rows
