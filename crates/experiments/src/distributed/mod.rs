@@ -14,7 +14,7 @@ use crate::radiance::{self, RadianceBin, SharedAmbientRun};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use wfic_render::film::Image;
-use wfic_render::stats::DistributedStats;
+use wfic_render::stats::{DistributedFrameStats, DistributedStats};
 use wfic_render::{render_reference_grid, scenes, RenderSettings, Scene};
 
 /// The scene of the experiment.
@@ -153,26 +153,13 @@ impl Job {
     }
 }
 
-/// One frame of an animation job.
-#[derive(Clone, Debug, PartialEq)]
-pub struct AnimFrame {
-    /// Rank 0's seconds for the frame.
-    pub seconds: f64,
-    /// Records computed in the frame, all ranks.
-    pub records: u64,
-    /// Of them, computed where another rank's record of the frame is also valid.
-    pub duplicates: u64,
-    /// Bytes sent in the frame, all ranks.
-    pub bytes: u64,
-}
-
 /// An orbit animation over one layout, the caches kept across frames.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Animation {
     /// The layout.
     pub layout: Layout,
-    /// Its frames.
-    pub frames: Vec<AnimFrame>,
+    /// Its frames, as rank 0 reported them.
+    pub frames: Vec<DistributedFrameStats>,
     /// The last frame's error against its brute-force image.
     pub last_error: ImageError,
 }
@@ -205,6 +192,30 @@ pub struct Distributed {
 fn read_stats(path: &Path) -> Result<DistributedStats, String> {
     let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
     DistributedStats::from_json(&text).map_err(|e| format!("{}: {e}", path.display()))
+}
+
+/// Bytes sent by a frame's ranks, summed.
+fn bytes_sent(frame: &DistributedFrameStats) -> u64 {
+    frame.ranks.iter().map(|r| r.bytes_sent).sum()
+}
+
+/// wfic's brute-force reference of `scene` from its camera (`ref_settings`: no cache, more
+/// rays) on the grid, its seconds, and the pixels the errors are measured on.
+fn brute_force(
+    scene: &Scene,
+    config: &DistributedConfig,
+    ref_settings: &RenderSettings,
+) -> Result<(Image, f64, Vec<bool>), String> {
+    let rc = ref_settings
+        .cache_config(scene)
+        .map_err(|e| e.to_string())?;
+    let (image, seconds) =
+        render_reference_grid(scene, &scene.camera(), ref_settings, rc, 2, config.stride);
+    Ok((
+        image,
+        seconds,
+        surface_mask(scene, &config.settings, config.stride),
+    ))
 }
 
 /// How `mpirun` is started.
@@ -254,53 +265,46 @@ impl Launcher {
         frames: usize,
         dir: &Path,
     ) -> Command {
+        let mut cmd = Command::new(if self.isolate { "unshare" } else { "mpirun" });
+        if self.isolate {
+            let lo_up = "ip link set lo up && exec \"$@\"";
+            cmd.args(["--net", "--", "sh", "-c", lo_up, "sh", "mpirun"]);
+        }
+        cmd.args(["-np", &layout.ranks.to_string()]).arg(&self.bin);
+        cmd.args([
+            "render",
+            "--distributed",
+            "--quiet",
+            "--scene",
+            &config.scene,
+        ]);
         let s = &config.settings;
-        let mut cmd = if self.isolate {
-            let mut c = Command::new("unshare");
-            c.args([
-                "--net",
-                "--",
-                "sh",
-                "-c",
-                "ip link set lo up && exec \"$@\"",
-                "sh",
-            ]);
-            c.arg("mpirun");
-            c
-        } else {
-            Command::new("mpirun")
-        };
-        cmd.args(["-np", &layout.ranks.to_string()])
-            .arg(&self.bin)
-            .args([
-                "render",
-                "--distributed",
-                "--quiet",
-                "--scene",
-                &config.scene,
-            ])
-            .args(["--width", &s.width.to_string()])
-            .args(["--height", &s.height.to_string()])
-            .args(["--accuracy", &s.accuracy.to_string()])
-            .args(["--rays-per-record", &s.rays_per_record.to_string()])
-            .args(["--light-samples", &s.light_samples.to_string()])
-            .args(["--spp", &s.pixel_samples.to_string()])
-            .args(["--seed", &s.seed.to_string()])
-            .args(["--threads", &layout.threads.to_string()])
-            .args(["--batch-records", &layout.batch_records.to_string()])
-            .args(["--batch-ms", &layout.batch_ms.to_string()])
-            .args(["--frames", &frames.to_string()])
-            .arg("--out")
-            .arg(dir.join("job.png"))
-            .arg("--stats")
-            .arg(dir.join("job.json"));
+        for (flag, value) in [
+            ("--width", s.width.to_string()),
+            ("--height", s.height.to_string()),
+            ("--accuracy", s.accuracy.to_string()),
+            ("--rays-per-record", s.rays_per_record.to_string()),
+            ("--light-samples", s.light_samples.to_string()),
+            ("--spp", s.pixel_samples.to_string()),
+            ("--seed", s.seed.to_string()),
+            ("--threads", layout.threads.to_string()),
+            ("--batch-records", layout.batch_records.to_string()),
+            ("--batch-ms", layout.batch_ms.to_string()),
+            ("--frames", frames.to_string()),
+        ] {
+            cmd.args([flag, &value]);
+        }
+        cmd.arg("--out").arg(dir.join("job.png"));
+        cmd.arg("--stats").arg(dir.join("job.json"));
         if !layout.share {
             cmd.arg("--no-share");
         }
-        cmd.env("OMPI_MCA_btl", "self,vader")
-            .env("OMPI_MCA_rmaps_base_oversubscribe", "1")
-            .env("OMPI_ALLOW_RUN_AS_ROOT", "1")
-            .env("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1");
+        cmd.envs([
+            ("OMPI_MCA_btl", "self,vader"),
+            ("OMPI_MCA_rmaps_base_oversubscribe", "1"),
+            ("OMPI_ALLOW_RUN_AS_ROOT", "1"),
+            ("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1"),
+        ]);
         cmd
     }
 
@@ -357,7 +361,7 @@ impl Bench<'_> {
             wall: *wall,
             computed: ranks.iter().map(|r| r.records_computed).collect(),
             duplicates: stats.duplicates,
-            bytes: ranks.iter().map(|r| r.bytes_sent).sum(),
+            bytes: bytes_sent(&stats),
             rounds: ranks.first().map_or(0, |r| r.rounds),
             collective_seconds: ranks
                 .iter()
@@ -373,38 +377,22 @@ impl Bench<'_> {
     /// last frame's error against its own reference.
     fn animate(
         &self,
-        scene: &Scene,
         ref_settings: &RenderSettings,
         progress: &mut dyn FnMut(&str),
     ) -> Result<Vec<Animation>, String> {
         let (config, n) = (self.config, self.config.animation_frames);
         progress("wfic reference of the animation's last frame");
         let mut last = scenes::load(&config.scene)?;
-        last.set_camera(wfic_render::Camera::orbit(scene, (n - 1) as f32 / n as f32));
-        let last_mask = surface_mask(&last, &config.settings, config.stride);
-        let rc = ref_settings
-            .cache_config(scene)
-            .map_err(|e| e.to_string())?;
-        let (last_reference, _) =
-            render_reference_grid(&last, &last.camera(), ref_settings, rc, 2, config.stride);
+        let orbit = wfic_render::Camera::orbit(&last, (n - 1) as f32 / n as f32);
+        last.set_camera(orbit);
+        let (last_reference, _, last_mask) = brute_force(&last, config, ref_settings)?;
         let mut animations = Vec::new();
         for layout in &config.layouts()[..3] {
             progress(&format!("animation, {n} frames: {}", layout.label));
             let (image, stats, _) = self.launcher.run(layout, config, n, self.work)?;
-            let frames = stats
-                .frames
-                .frames()
-                .iter()
-                .map(|f| AnimFrame {
-                    seconds: f.seconds,
-                    records: f.records_computed,
-                    duplicates: f.duplicates,
-                    bytes: f.ranks.iter().map(|r| r.bytes_sent).sum(),
-                })
-                .collect();
             animations.push(Animation {
                 layout: *layout,
-                frames,
+                frames: stats.frames.frames().to_vec(),
                 last_error: image_error(&image, &last_reference, &last_mask),
             });
         }
@@ -427,24 +415,14 @@ pub fn run(
     }
     let scene: Scene = scenes::load(&config.scene)?;
     let launcher = Launcher::find()?;
-    let bin = if config.radiance {
-        Some(RadianceBin::find()?)
-    } else {
-        None
-    };
-    std::fs::create_dir_all(out_dir).map_err(|e| format!("{}: {e}", out_dir.display()))?;
+    let bin = config.radiance.then(RadianceBin::find).transpose()?;
     let work = out_dir.join("work-distributed");
     std::fs::create_dir_all(&work).map_err(|e| format!("{}: {e}", work.display()))?;
     let s = &config.settings;
-    let mask = surface_mask(&scene, s, config.stride);
 
     progress("wfic reference (no cache, 4x the rays)");
     let ref_settings = s.clone().rays_per_record(4 * s.rays_per_record);
-    let rc = ref_settings
-        .cache_config(&scene)
-        .map_err(|e| e.to_string())?;
-    let (reference, reference_seconds) =
-        render_reference_grid(&scene, &scene.camera(), &ref_settings, rc, 2, config.stride);
+    let (reference, reference_seconds, mask) = brute_force(&scene, config, &ref_settings)?;
     let bench = Bench {
         launcher: &launcher,
         config,
@@ -452,34 +430,28 @@ pub fn run(
         reference: &reference,
         mask: &mask,
     };
-    let mut jobs = Vec::new();
-    for layout in &config.layouts() {
-        jobs.push(bench.measure(layout, progress)?);
-    }
-    let mut sweep = Vec::new();
-    for &batch in &config.batches {
-        sweep.push(bench.measure(&DistributedConfig::sweep_layout(batch), progress)?);
-    }
+    let mut measure = |layout: Layout| bench.measure(&layout, progress);
+    let jobs = config.layouts().into_iter().map(&mut measure);
+    let jobs = jobs.collect::<Result<_, _>>()?;
+    let sweep = config
+        .batches
+        .iter()
+        .map(|&b| DistributedConfig::sweep_layout(b));
+    let sweep = sweep.map(&mut measure).collect::<Result<_, _>>()?;
     let animations = if config.animation_frames > 1 {
-        bench.animate(&scene, &ref_settings, progress)?
+        bench.animate(&ref_settings, progress)?
     } else {
         Vec::new()
     };
-    let (radiance, radiance_version) = match &bin {
-        Some(bin) => {
-            progress("radiance: reference and rtrace -n 1, -n 2 on one ambient file");
-            let r = radiance::shared_ambient(
-                bin,
-                &scene,
-                s,
-                config.radiance_resolution,
-                config.stride,
-                &[1, 2],
-                &work.join("radiance"),
-            )?;
-            (Some(r), bin.version())
-        }
-        None => (None, String::new()),
+    let radiance = if let Some(bin) = &bin {
+        progress("radiance: reference and rtrace -n 1, -n 2 on one ambient file");
+        let dir = work.join("radiance");
+        let resolution = config.radiance_resolution;
+        let runs =
+            radiance::shared_ambient(bin, &scene, s, resolution, config.stride, &[1, 2], &dir)?;
+        Some(runs)
+    } else {
+        None
     };
     std::fs::remove_dir_all(&work).ok();
     Ok(Distributed {
@@ -489,13 +461,11 @@ pub fn run(
         sweep,
         animations,
         radiance,
-        radiance_version,
+        radiance_version: bin.as_ref().map_or(String::new(), RadianceBin::version),
         reference_seconds,
         isolated: launcher.isolate,
     })
 }
-
-pub use crate::harness::stats::fit_line;
 
 impl Distributed {
     /// The job whose layout label is `label`.
@@ -506,17 +476,18 @@ impl Distributed {
     /// The exchange-cost model calibrated from the measured jobs: seconds of inserting one
     /// received record (all jobs that received any), and bytes per record on the wire.
     pub fn calibration(&self) -> (f64, f64) {
-        let (mut secs, mut recs, mut bytes) = (0.0, 0u64, 0u64);
-        for j in self.jobs.iter().chain(&self.sweep) {
-            if j.received > 0 {
-                secs += j.insert_seconds;
-                recs += j.received;
-                bytes += j.bytes;
-            }
-        }
+        let exchanged = || {
+            self.jobs
+                .iter()
+                .chain(&self.sweep)
+                .filter(|j| j.received > 0)
+        };
+        let recs: u64 = exchanged().map(|j| j.received).sum();
         if recs == 0 {
             return (0.0, 0.0);
         }
+        let secs: f64 = exchanged().map(|j| j.insert_seconds).sum();
+        let bytes: u64 = exchanged().map(|j| j.bytes).sum();
         (secs / recs as f64, bytes as f64 / recs as f64)
     }
 
@@ -528,63 +499,58 @@ impl Distributed {
         else {
             return out;
         };
+        let mut check = |claim: &str, holds: bool, detail: String| {
+            out.push(Check::new("", claim, Verdict::of(holds), detail));
+        };
         let ratio = |a: u64, b: u64| a as f64 / b as f64;
-        out.push(Check::new(
-            "",
+        let (shared_n, one_n) = (shared.total(), one.total());
+        check(
             "2 shared ranks compute fewer records than 2 independent ones",
-            Verdict::of(shared.total() < alone.total()),
+            shared_n < alone.total(),
             format!(
-                "{} against {} ({} extra over one rank's {})",
-                shared.total(),
+                "{shared_n} against {} ({} extra over one rank's {one_n})",
                 alone.total(),
-                pct(ratio(shared.total(), one.total()) - 1.0),
-                one.total()
+                pct(ratio(shared_n, one_n) - 1.0),
             ),
-        ));
-        out.push(Check::new(
-            "",
+        );
+        let (shared_err, one_err) = (shared.error.rel_rmse, one.error.rel_rmse);
+        check(
             "2 shared ranks as accurate as 1 rank (within 1.5x its error)",
-            Verdict::of(shared.error.rel_rmse <= 1.5 * one.error.rel_rmse),
-            format!(
-                "{} against {}",
-                pct(shared.error.rel_rmse),
-                pct(one.error.rel_rmse)
-            ),
-        ));
+            shared_err <= 1.5 * one_err,
+            format!("{} against {}", pct(shared_err), pct(one_err)),
+        );
         let runs = self.radiance.as_ref().map_or(&[][..], |(r, _)| r);
         let by = |p: usize| runs.iter().find(|r| r.processes == p);
         if let (Some(r1), Some(r2)) = (by(1), by(2)) {
-            let (r2n, r1n) = (r2.records as u64, r1.records.max(1) as u64);
-            out.push(Check::new(
-                "",
+            let (wfic, rad) = (
+                ratio(shared_n, one_n),
+                ratio(r2.records as u64, r1.records.max(1) as u64),
+            );
+            check(
                 "wfic's extra records at 2 ranks no more than Radiance's at 2 processes",
-                Verdict::of(ratio(shared.total(), one.total()) <= ratio(r2n, r1n)),
+                wfic <= rad,
                 format!(
-                    "wfic {} ({} against {}); Radiance {} ({} against {})",
-                    pct(ratio(shared.total(), one.total()) - 1.0),
-                    shared.total(),
-                    one.total(),
-                    pct(ratio(r2n, r1n) - 1.0),
+                    "wfic {} ({shared_n} against {one_n}); Radiance {} ({} against {})",
+                    pct(wfic - 1.0),
+                    pct(rad - 1.0),
                     r2.records,
                     r1.records
                 ),
-            ));
+            );
         }
         if let (Some(first), Some(last)) = (self.sweep.first(), self.sweep.last()) {
-            out.push(Check::new(
-                "",
-                "a larger batch means fewer rounds and more duplicates",
-                Verdict::of(last.rounds < first.rounds && last.duplicates >= first.duplicates),
+            let batch = |j: &Job| {
+                let b = j.layout.batch_records;
                 format!(
-                    "batch {}: {} rounds, {} duplicates; batch {}: {} rounds, {} duplicates",
-                    first.layout.batch_records,
-                    first.rounds,
-                    first.duplicates,
-                    last.layout.batch_records,
-                    last.rounds,
-                    last.duplicates
-                ),
-            ));
+                    "batch {b}: {} rounds, {} duplicates",
+                    j.rounds, j.duplicates
+                )
+            };
+            check(
+                "a larger batch means fewer rounds and more duplicates",
+                last.rounds < first.rounds && last.duplicates >= first.duplicates,
+                format!("{}; {}", batch(first), batch(last)),
+            );
         }
         out
     }

@@ -1,65 +1,93 @@
 //! The report of `wfic reproduce distributed`: `distributed.md`, `distributed.csv` and the
 //! batch sweep's plot.
 
-use super::{AnimFrame, Animation, Distributed, Job, Layout, ONE, SHARED};
+use super::{bytes_sent, Animation, Distributed, Job, Layout, ONE, SHARED};
 use crate::harness::metrics::ImageError;
 use crate::harness::stats;
 use crate::harness::table::{pct, Table};
 use crate::harness::{Check, Output, Provenance};
 use crate::plot::{Figure, Line, Panel};
 use crate::radiance::SharedAmbientRun;
-use std::fmt::Write as _;
 use std::path::Path;
+use wfic_render::stats::DistributedFrameStats;
 
 fn kib(bytes: u64) -> String {
     format!("{:.1} KiB", bytes as f64 / 1024.0)
 }
 
 /// One line of `distributed.csv`: a job, an animation's frame or a Radiance run (the figures a
-/// kind has not are blank).
-struct CsvLine<'a> {
+/// kind has not are blank); a main job's line is also a row of the layouts' table.
+struct Row<'a> {
     group: String,
-    layout: String,
+    label: String,
     ranks: usize,
     threads: usize,
     share: bool,
     batch: Option<(usize, u64)>,
     seconds: f64,
-    job: Option<&'a Job>,
     records: u64,
     duplicates: Option<u64>,
     bytes: u64,
     error: Option<ImageError>,
+    job: Option<&'a Job>,
 }
 
-impl<'a> CsvLine<'a> {
+impl<'a> Row<'a> {
     /// A line of `layout`, its figures blank.
     fn new(group: String, l: &Layout) -> Self {
         Self {
             group,
-            layout: l.label.replace(',', ";"),
+            label: l.label.to_owned(),
             ranks: l.ranks,
             threads: l.threads,
             share: l.share,
             batch: Some((l.batch_records, l.batch_ms)),
             seconds: 0.0,
-            job: None,
             records: 0,
             duplicates: None,
             bytes: 0,
             error: None,
+            job: None,
         }
     }
 
     fn job(group: &str, j: &'a Job) -> Self {
         Self {
             seconds: j.seconds,
-            job: Some(j),
             records: j.total(),
             duplicates: Some(j.duplicates),
             bytes: j.bytes,
             error: Some(j.error),
+            job: Some(j),
             ..Self::new(group.to_owned(), &j.layout)
+        }
+    }
+
+    /// A line of an animation's frame `i`.
+    fn frame(i: usize, l: &Layout, f: &DistributedFrameStats) -> Self {
+        Self {
+            seconds: f.seconds,
+            records: f.records_computed,
+            duplicates: Some(f.duplicates),
+            bytes: bytes_sent(f),
+            ..Self::new(format!("animation frame {i}"), l)
+        }
+    }
+
+    fn radiance(r: &SharedAmbientRun) -> Self {
+        Self {
+            group: "radiance".to_owned(),
+            label: format!("rtrace -n {}", r.processes),
+            ranks: r.processes,
+            threads: 1,
+            share: true,
+            batch: None,
+            seconds: r.seconds,
+            records: r.records as u64,
+            duplicates: None,
+            bytes: r.ambient_bytes,
+            error: Some(r.error),
+            job: None,
         }
     }
 
@@ -67,11 +95,18 @@ impl<'a> CsvLine<'a> {
     fn of_job(&self, f: impl Fn(&Job) -> String) -> String {
         self.job.map_or(String::new(), f)
     }
+
+    /// A blank cell, or `{:.5}` of `f` of the error.
+    fn of_error(&self, f: fn(&ImageError) -> f64) -> String {
+        self.error
+            .map_or(String::new(), |e| format!("{:.5}", f(&e)))
+    }
 }
 
-/// `{:.*}` of `x`, or blank.
-fn opt(x: Option<f64>, digits: usize) -> String {
-    x.map_or(String::new(), |x| format!("{x:.digits$}"))
+/// The records of each rank, joined with `sep`.
+fn per_rank(j: &Job, sep: &str) -> String {
+    let per: Vec<String> = j.computed.iter().map(u64::to_string).collect();
+    per.join(sep)
 }
 
 impl Distributed {
@@ -109,53 +144,85 @@ impl Distributed {
 
     /// A layout's name, marked when its processes times threads exceed the machine's cores
     /// (computed, as the provenance header's list is).
-    fn layout_label(&self, layout: &Layout) -> String {
-        let workers = layout.ranks * layout.threads;
-        let mark = if self.machine.oversubscribed(workers) {
-            " (oversubscribed)"
-        } else {
-            ""
-        };
-        format!("{}{mark}", layout.label)
+    fn layout_label(&self, label: &str, ranks: usize, threads: usize) -> String {
+        let over = self.machine.oversubscribed(ranks * threads);
+        format!("{label}{}", if over { " (oversubscribed)" } else { "" })
     }
 
-    /// The main layouts against one rank.
-    fn layouts_markdown(&self) -> String {
+    /// Every line of `distributed.csv`, the main jobs' first.
+    fn rows(&self) -> Vec<Row<'_>> {
+        let mut rows: Vec<Row> = self.jobs.iter().map(|j| Row::job("layout", j)).collect();
+        rows.extend(self.sweep.iter().map(|j| Row::job("sweep", j)));
+        for a in &self.animations {
+            let frames = a.frames.iter().enumerate();
+            rows.extend(frames.map(|(i, f)| Row::frame(i, &a.layout, f)));
+        }
+        rows.extend(self.radiance.iter().flat_map(|(r, _)| r).map(Row::radiance));
+        rows
+    }
+
+    /// The layouts' table against one rank (Markdown) and `distributed.csv`, in one spec.
+    fn table(&self) -> Table<'_, Row<'_>> {
         let one = self.job(ONE);
-        let against = |j: &Job| {
+        let against = move |r: &Row| {
             one.map_or((1.0, 1.0), |o| {
-                (j.seconds / o.seconds, j.total() as f64 / o.total() as f64)
+                (r.seconds / o.seconds, r.records as f64 / o.total() as f64)
             })
         };
-        let t = Table::new()
-            .md("layout", |j: &Job| self.layout_label(&j.layout))
-            .left()
-            .md("seconds (range)", |j| {
-                format!("{:.3} ({:.3}-{:.3})", j.seconds, j.range.0, j.range.1)
-            })
-            .md("wall", |j| format!("{:.2}", j.wall))
-            .md("vs 1 x 2", |j| format!("{:.2}x", against(j).0))
-            .md("records", |j| j.total().to_string())
-            .md("per rank", |j| {
-                let per: Vec<String> = j.computed.iter().map(u64::to_string).collect();
-                per.join(" / ")
+        let batch = |r: &Row, f: fn((usize, u64)) -> String| r.batch.map_or(String::new(), f);
+        Table::new()
+            .csv("group", |r: &Row| r.group.clone())
+            .col("layout", "layout", |r| {
+                self.layout_label(&r.label, r.ranks, r.threads)
             })
             .left()
-            .md("vs 1 x 2", |j| {
-                format!("{:+.1}%", 100.0 * (against(j).1 - 1.0))
+            .csv_as(|r| r.label.replace(',', ";"))
+            .csv("ranks", |r| r.ranks.to_string())
+            .csv("threads", |r| r.threads.to_string())
+            .csv("share", |r| r.share.to_string())
+            .csv("batch_records", move |r| batch(r, |b| b.0.to_string()))
+            .csv("batch_ms", move |r| batch(r, |b| b.1.to_string()))
+            .col("seconds (range)", "seconds", |r| {
+                r.of_job(|j| format!("{:.3} ({:.3}-{:.3})", j.seconds, j.range.0, j.range.1))
             })
-            .md("duplicates", |j| j.duplicates.to_string())
-            .md("bytes sent", |j| kib(j.bytes))
-            .md("rounds", |j| j.rounds.to_string())
-            .md("collectives (max rank)", |j| {
-                format!("{:.3} s", j.collective_seconds)
+            .csv_as(|r| format!("{:.4}", r.seconds))
+            .csv("seconds_min", |r| r.of_job(|j| format!("{:.4}", j.range.0)))
+            .csv("seconds_max", |r| r.of_job(|j| format!("{:.4}", j.range.1)))
+            .col("wall", "wall", |r| r.of_job(|j| format!("{:.2}", j.wall)))
+            .csv_as(|r| r.of_job(|j| format!("{:.3}", j.wall)))
+            .md("vs 1 x 2", move |r| format!("{:.2}x", against(r).0))
+            .col("records", "records", |r| r.records.to_string())
+            .col("per rank", "records_per_rank", |r| {
+                r.of_job(|j| per_rank(j, " / "))
             })
-            .md("inserting (all ranks)", |j| {
-                format!("{:.3} s", j.insert_seconds)
+            .left()
+            .csv_as(|r| r.of_job(|j| per_rank(j, "/")))
+            .md("vs 1 x 2", move |r| {
+                format!("{:+.1}%", 100.0 * (against(r).1 - 1.0))
             })
-            .md("error", |j| pct(j.error.rel_rmse))
-            .md("mean rel. error", |j| pct(j.error.mean_rel));
-        format!("## The layouts\n\n{}", t.markdown(&self.jobs))
+            .col("duplicates", "duplicates", |r| {
+                r.duplicates.map_or(String::new(), |d| d.to_string())
+            })
+            .col("bytes sent", "bytes_sent", |r| kib(r.bytes))
+            .csv_as(|r| r.bytes.to_string())
+            .col("rounds", "rounds", |r| r.of_job(|j| j.rounds.to_string()))
+            .col("collectives (max rank)", "collective_seconds", |r| {
+                r.of_job(|j| format!("{:.3} s", j.collective_seconds))
+            })
+            .csv_as(|r| r.of_job(|j| format!("{:.4}", j.collective_seconds)))
+            .col("inserting (all ranks)", "insert_seconds", |r| {
+                r.of_job(|j| format!("{:.3} s", j.insert_seconds))
+            })
+            .csv_as(|r| r.of_job(|j| format!("{:.4}", j.insert_seconds)))
+            .csv("records_received", |r| r.of_job(|j| j.received.to_string()))
+            .col("error", "rel_rmse", |r| {
+                r.error.map_or(String::new(), |e| pct(e.rel_rmse))
+            })
+            .csv_as(|r| r.of_error(|e| e.rel_rmse))
+            .col("mean rel. error", "mean_rel", |r| {
+                r.error.map_or(String::new(), |e| pct(e.mean_rel))
+            })
+            .csv_as(|r| r.of_error(|e| e.mean_rel))
     }
 
     /// Radiance's processes sharing one ambient file, against wfic's ranks.
@@ -171,10 +238,8 @@ impl Distributed {
             .md("records", |r| r.records.to_string())
             .md("vs 1 process", |r| {
                 r1.map_or("-".to_owned(), |one| {
-                    format!(
-                        "{:+.1}%",
-                        100.0 * (r.records as f64 / one.max(1) as f64 - 1.0)
-                    )
+                    let more = r.records as f64 / one.max(1) as f64 - 1.0;
+                    format!("{:+.1}%", 100.0 * more)
                 })
             })
             .md("ambient file", |r| kib(r.ambient_bytes))
@@ -201,7 +266,7 @@ impl Distributed {
         )
     }
 
-    /// The batch sweep and the orbit animation.
+    /// The batch sweep's table.
     fn sweep_markdown(&self) -> String {
         let t = Table::new()
             .md("batch (records)", |j: &Job| {
@@ -216,19 +281,28 @@ impl Distributed {
                 format!("{:.3} s", j.collective_seconds)
             })
             .md("error", |j| pct(j.error.rel_rmse));
-        let mut md = format!(
+        format!(
             "\n## Batch size: duplicates against exchange cost (2 ranks x 1 thread, the timer \
              off)\n\n{}",
             t.markdown(&self.sweep)
-        );
+        )
+    }
+
+    /// The orbit animation's table (empty without one).
+    fn animation_markdown(&self) -> String {
         let Some(n) = self.animations.first().map(|a| a.frames.len()) else {
-            return md;
+            return String::new();
         };
-        let later =
-            |a: &Animation, f: fn(&AnimFrame) -> f64| stats::mean(a.frames[1..].iter().map(f));
-        let total = |a: &Animation, f: fn(&AnimFrame) -> u64| a.frames.iter().map(f).sum::<u64>();
+        let later = |a: &Animation, f: fn(&DistributedFrameStats) -> f64| {
+            stats::mean(a.frames[1..].iter().map(f))
+        };
+        let total = |a: &Animation, f: fn(&DistributedFrameStats) -> u64| {
+            a.frames.iter().map(f).sum::<u64>()
+        };
         let t = Table::new()
-            .md("layout", |a: &Animation| self.layout_label(&a.layout))
+            .md("layout", |a: &Animation| {
+                self.layout_label(a.layout.label, a.layout.ranks, a.layout.threads)
+            })
             .left()
             .md("first frame (s)", |a| format!("{:.3}", a.frames[0].seconds))
             .md("later frames, mean (s)", |a| {
@@ -237,34 +311,39 @@ impl Distributed {
             .md("total (s)", |a| {
                 format!("{:.3}", a.frames.iter().map(|f| f.seconds).sum::<f64>())
             })
-            .md("records, first", |a| a.frames[0].records.to_string())
-            .md("records, later (mean)", |a| {
-                format!("{:.0}", later(a, |f| f.records as f64))
+            .md("records, first", |a| {
+                a.frames[0].records_computed.to_string()
             })
-            .md("records, all", |a| total(a, |f| f.records).to_string())
+            .md("records, later (mean)", |a| {
+                format!("{:.0}", later(a, |f| f.records_computed as f64))
+            })
+            .md("records, all", |a| {
+                total(a, |f| f.records_computed).to_string()
+            })
             .md("duplicates, all", |a| {
                 total(a, |f| f.duplicates).to_string()
             })
-            .md("bytes sent, all", |a| kib(total(a, |f| f.bytes)))
+            .md("bytes sent, all", |a| kib(total(a, bytes_sent)))
             .md("last frame's error", |a| pct(a.last_error.rel_rmse));
-        let _ = write!(
-            md,
+        format!(
             "\n## The orbit animation: {n} frames, the caches kept across frames\n\n{}",
             t.markdown(&self.animations)
-        );
-        md
+        )
     }
 
     /// `distributed.md`'s body.
     pub fn markdown(&self) -> String {
         let (insert, wire) = self.calibration();
+        let rows = self.rows();
         format!(
-            "{}{}{}{}\n## The exchange-cost model, calibrated here\n\n{:.2} us to insert a received record, {:.0} bytes a record on the wire.\n\n\
+            "{}## The layouts\n\n{}{}{}{}\n## The exchange-cost model, calibrated here\n\n\
+             {:.2} us to insert a received record, {:.0} bytes a record on the wire.\n\n\
              ## Checks\n\n{}",
             self.intro(),
-            self.layouts_markdown(),
+            self.table().markdown(&rows[..self.jobs.len()]),
             self.radiance_markdown(),
             self.sweep_markdown(),
+            self.animation_markdown(),
             insert * 1e6,
             wire,
             Check::markdown(&self.checks(), false)
@@ -273,72 +352,7 @@ impl Distributed {
 
     /// `distributed.csv`: one line a job, an animation's frame, a Radiance run.
     pub fn csv(&self) -> String {
-        let mut lines: Vec<CsvLine> = Vec::new();
-        for (group, jobs) in [("layout", &self.jobs), ("sweep", &self.sweep)] {
-            lines.extend(jobs.iter().map(|j| CsvLine::job(group, j)));
-        }
-        for a in &self.animations {
-            for (i, f) in a.frames.iter().enumerate() {
-                lines.push(CsvLine {
-                    seconds: f.seconds,
-                    records: f.records,
-                    duplicates: Some(f.duplicates),
-                    bytes: f.bytes,
-                    ..CsvLine::new(format!("animation frame {i}"), &a.layout)
-                });
-            }
-        }
-        for r in self.radiance.iter().flat_map(|(runs, _)| runs) {
-            lines.push(CsvLine {
-                group: "radiance".to_owned(),
-                layout: format!("rtrace -n {}", r.processes),
-                ranks: r.processes,
-                threads: 1,
-                share: true,
-                batch: None,
-                seconds: r.seconds,
-                job: None,
-                records: r.records as u64,
-                duplicates: None,
-                bytes: r.ambient_bytes,
-                error: Some(r.error),
-            });
-        }
-        let batch = |l: &CsvLine, f: fn((usize, u64)) -> String| l.batch.map_or(String::new(), f);
-        Table::new()
-            .csv("group", |l: &CsvLine| l.group.clone())
-            .csv("layout", |l| l.layout.clone())
-            .csv("ranks", |l| l.ranks.to_string())
-            .csv("threads", |l| l.threads.to_string())
-            .csv("share", |l| l.share.to_string())
-            .csv("batch_records", move |l| batch(l, |b| b.0.to_string()))
-            .csv("batch_ms", move |l| batch(l, |b| b.1.to_string()))
-            .csv("seconds", |l| format!("{:.4}", l.seconds))
-            .csv("seconds_min", |l| l.of_job(|j| format!("{:.4}", j.range.0)))
-            .csv("seconds_max", |l| l.of_job(|j| format!("{:.4}", j.range.1)))
-            .csv("wall", |l| l.of_job(|j| format!("{:.3}", j.wall)))
-            .csv("records", |l| l.records.to_string())
-            .csv("records_per_rank", |l| {
-                l.of_job(|j| {
-                    let per: Vec<String> = j.computed.iter().map(u64::to_string).collect();
-                    per.join("/")
-                })
-            })
-            .csv("duplicates", |l| {
-                l.duplicates.map_or(String::new(), |d| d.to_string())
-            })
-            .csv("bytes_sent", |l| l.bytes.to_string())
-            .csv("rounds", |l| l.of_job(|j| j.rounds.to_string()))
-            .csv("collective_seconds", |l| {
-                l.of_job(|j| format!("{:.4}", j.collective_seconds))
-            })
-            .csv("insert_seconds", |l| {
-                l.of_job(|j| format!("{:.4}", j.insert_seconds))
-            })
-            .csv("records_received", |l| l.of_job(|j| j.received.to_string()))
-            .csv("rel_rmse", |l| opt(l.error.map(|e| e.rel_rmse), 5))
-            .csv("mean_rel", |l| opt(l.error.map(|e| e.mean_rel), 5))
-            .csv_text(&lines)
+        self.table().csv_text(&self.rows())
     }
 
     /// The sweep's plot: duplicates and rounds against the batch size.
@@ -349,49 +363,45 @@ impl Distributed {
             .iter()
             .map(|j| (x(j), j.layout.batch_records.to_string()))
             .collect();
-        let (lo, hi) = (
-            ticks.first().map_or(0.0, |t| t.0),
-            ticks.last().map_or(1.0, |t| t.0),
-        );
-        let base = Panel {
+        let lo = ticks.first().map_or(0.0, |t| t.0);
+        let hi = ticks.last().map_or(1.0, |t| t.0);
+        let panel = |title: &str, axis: &str, label: &str, colour, f: fn(&Job) -> u64| Panel {
+            title: title.into(),
+            left_label: axis.into(),
+            lines: vec![Line {
+                label: label.to_owned(),
+                colour,
+                points: self.sweep.iter().map(|j| (x(j), f(j) as f64)).collect(),
+                markers: true,
+            }],
+            legend: vec![(label.into(), colour)],
             x_range: (lo, hi.max(lo + 1.0)),
-            x_ticks: ticks,
+            x_ticks: ticks.clone(),
             x_label: "BATCH (RECORDS, LOG SCALE)".into(),
             ..Panel::default()
         };
-        let line = |label: &str, colour, f: &dyn Fn(&Job) -> f64| Line {
-            label: label.to_owned(),
-            colour,
-            points: self.sweep.iter().map(|j| (x(j), f(j))).collect(),
-            markers: true,
-        };
-        let blue = [40, 90, 200];
-        let red = [200, 60, 40];
+        let s = &self.config.settings;
         Figure {
             header: vec![
                 format!(
                     "BATCH SIZE: DUPLICATES AGAINST EXCHANGE ROUNDS, 2 RANKS X 1 THREAD, {} {}X{}",
                     self.config.scene.to_uppercase(),
-                    self.config.settings.width,
-                    self.config.settings.height
+                    s.width,
+                    s.height
                 ),
                 self.machine.banner_with_ranks(&[], &[(2, 1)]),
             ],
             panels: vec![
-                Panel {
-                    title: "DUPLICATE RECORDS".into(),
-                    left_label: "RECORDS".into(),
-                    lines: vec![line("duplicates", red, &|j| j.duplicates as f64)],
-                    legend: vec![("duplicates".into(), red)],
-                    ..base.clone()
-                },
-                Panel {
-                    title: "EXCHANGE ROUNDS".into(),
-                    left_label: "ROUNDS".into(),
-                    lines: vec![line("rounds", blue, &|j| j.rounds as f64)],
-                    legend: vec![("rounds".into(), blue)],
-                    ..base
-                },
+                panel(
+                    "DUPLICATE RECORDS",
+                    "RECORDS",
+                    "duplicates",
+                    [200, 60, 40],
+                    |j| j.duplicates,
+                ),
+                panel("EXCHANGE ROUNDS", "ROUNDS", "rounds", [40, 90, 200], |j| {
+                    j.rounds
+                }),
             ],
             columns: 2,
             panel_size: (640, 420),
