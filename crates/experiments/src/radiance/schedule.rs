@@ -14,7 +14,7 @@ fn seed_of(i: u32) -> u64 {
 }
 
 /// The images a comparison measures against: the renderer's own brute-force images (wfic: one
-/// per seed, repeat `i` against `own[i]`; Radiance: one, every repeat against `own[0]`), the
+/// per seed, repeat `i` against `own[i]`; Radiance: one, every repeat against it), the
 /// converged one, the pixels measured.
 pub(super) struct References<'a> {
     own: &'a [Image],
@@ -25,37 +25,58 @@ pub(super) struct References<'a> {
 impl References<'_> {
     /// `run` with its errors: `img` against the own reference of `repeat` and the converged one.
     fn measured(&self, mut run: Run, img: &Image, repeat: usize) -> Run {
-        run.cache_error = image_error(img, &self.own[repeat], self.mask);
+        let own = &self.own[repeat.min(self.own.len() - 1)];
+        run.cache_error = image_error(img, own, self.mask);
         run.image_error = image_error(img, self.converged, self.mask);
         run.cache_error_range = (run.cache_error.rel_rmse, run.cache_error.rel_rmse);
         run
     }
 
+    /// `repeats` renders of the setting of `row` (`render(i)`: the image, seconds and records
+    /// of repeat `i`), each measured, as one row ([`Run::combine`]); and the first image.
+    fn frames(
+        &self,
+        row: &Run,
+        repeats: usize,
+        mut render: impl FnMut(usize) -> Result<(Image, f64, usize), String>,
+    ) -> Result<(Run, Image), String> {
+        let mut first = None;
+        let runs = repeat(repeats, |i| {
+            let (img, seconds, records) = render(i)?;
+            let run = Run {
+                seconds,
+                records,
+                ..row.clone()
+            };
+            let run = self.measured(run, &img, i);
+            first.get_or_insert(img);
+            Ok::<_, String>(run)
+        })?;
+        Ok((Run::combine(runs), first.expect("at least one repeat")))
+    }
+
     /// wfic frames (`wf`, a fresh cache) of `scene` at settings `s` on `workers` threads, one
-    /// per own reference (each with that reference's seed), measured as one row
-    /// ([`Run::combine`]); and the first frame's image.
-    pub(super) fn wfic_frames(
+    /// per own reference (each with that reference's seed), as one row; and the first image.
+    fn wfic_frames(
         &self,
         scene: &Scene,
         role: Role,
         s: &RenderSettings,
         workers: usize,
     ) -> Result<(Run, Image), String> {
-        let mut first = None;
-        let runs = repeat(self.own.len(), |i| {
-            let mut s = s.clone();
-            s.seed = seed_of(i as u32);
+        let row = Run::new(
+            "wfic",
+            role,
+            workers,
+            (s.accuracy, s.rays_per_record),
+            Some(s),
+        );
+        self.frames(&row, self.own.len(), |i| {
+            let s = s.clone().seed(seed_of(i as u32));
             let config = s.cache_config(scene).map_err(|e| e.to_string())?;
-            let camera = scene.camera();
-            let f = render_with_scheme(Scheme::Wf, scene, &camera, &s, config, workers).0;
-            let setting = (s.accuracy, s.rays_per_record);
-            let stats = (f.stats.seconds, f.stats.cache_records);
-            let run = Run::new("wfic", role, workers, Some(&s), setting, stats);
-            let run = self.measured(run, &f.image, i);
-            first.get_or_insert(f.image);
-            Ok::<_, String>(run)
-        })?;
-        Ok((Run::combine(runs), first.expect("at least one repeat")))
+            let f = render_with_scheme(Scheme::Wf, scene, &scene.camera(), &s, config, workers).0;
+            Ok((f.image, f.stats.seconds, f.stats.cache_records))
+        })
     }
 
     /// [`Self::wfic_frames`] without the image.
@@ -74,10 +95,10 @@ impl References<'_> {
 pub(super) struct SceneReferences {
     pub(super) mask: Vec<bool>,
     pub(super) radiance: Image,
-    pub(super) radiance_seconds: f64,
+    radiance_seconds: f64,
     pub(super) wfic_own: Vec<Image>,
-    pub(super) wfic_seconds: f64,
-    pub(super) wfic_settings: RenderSettings,
+    wfic_seconds: f64,
+    wfic_settings: RenderSettings,
     pub(super) converged: Image,
 }
 
@@ -88,54 +109,45 @@ impl SceneReferences {
         scene: &Scene,
         rtrace: &Rtrace,
     ) -> Result<Self, String> {
-        let (name, n, a, k) = (
-            scene.name(),
-            config.rays,
-            config.accuracy,
-            config.reference_stride,
-        );
+        let (name, n4, k) = (scene.name(), 4 * config.rays, config.reference_stride);
         say!(
             name,
-            "radiance reference: -aa 0 -ad {}, 2 processes, 1 pixel in {}",
-            4 * n,
+            "radiance reference: -aa 0 -ad {n4}, 2 processes, 1 pixel in {}",
             k * k
         );
-        let (radiance, radiance_seconds) = rtrace.reference(4 * n)?;
+        let (radiance, radiance_seconds) = rtrace.reference(n4)?;
         // wfic's references on the same grid: brute force with the matched light samples (cache
         // error), and the converged one (image error) with more light samples and another seed.
         let repeats = config.repeats.max(1);
         say!(
             name,
-            "wfic reference: none, {} rays, 2 threads, {repeats} seed(s)",
-            4 * n
+            "wfic reference: none, {n4} rays, 2 threads, {repeats} seed(s)"
         );
-        let wfic_settings = config.settings(a, 4 * n, config.light_samples, seed_of(0));
+        let wfic_settings = config.settings(config.accuracy, n4, config.light_samples, seed_of(0));
         let rc = wfic_settings
             .cache_config(scene)
             .map_err(|e| e.to_string())?;
         let camera = scene.camera();
-        let mut own = Vec::new();
-        for i in 0..repeats {
-            let mut rs = wfic_settings.clone();
-            rs.seed = seed_of(i);
-            own.push(render_reference_grid(scene, &camera, &rs, rc, 2, k));
-        }
+        let own: Vec<(Image, f64)> = (0..repeats)
+            .map(|i| {
+                let s = wfic_settings.clone().seed(seed_of(i));
+                render_reference_grid(scene, &camera, &s, rc, 2, k)
+            })
+            .collect();
         let light = config.converged_light_samples;
         say!(
             name,
-            "converged reference: none, {} rays, {light} light samples",
-            4 * n
+            "converged reference: none, {n4} rays, {light} light samples"
         );
-        let conv_settings = config.settings(a, 4 * n, light, 0xc0ffee);
-        let (converged, _) = render_reference_grid(scene, &camera, &conv_settings, rc, 2, k);
+        let conv_settings = config.settings(config.accuracy, n4, light, 0xc0ffee);
         Ok(Self {
+            converged: render_reference_grid(scene, &camera, &conv_settings, rc, 2, k).0,
             mask: surface_mask(scene, &wfic_settings, k),
             radiance,
             radiance_seconds,
             wfic_seconds: own[0].1,
             wfic_own: own.into_iter().map(|(img, _)| img).collect(),
             wfic_settings,
-            converged,
         })
     }
 
@@ -158,22 +170,20 @@ impl SceneReferences {
     /// The two references' own rows.
     pub(super) fn rows(&self, rays: u32) -> [Run; 2] {
         let s = &self.wfic_settings;
-        let radiance = Run::new(
-            "radiance",
-            Role::Reference,
-            2,
-            None,
-            (0.0, 4 * rays),
-            (self.radiance_seconds, 0),
-        );
-        let wfic = Run::new(
-            "wfic",
-            Role::Reference,
-            2,
-            Some(s),
-            (0.0, s.rays_per_record),
-            (self.wfic_seconds, 0),
-        );
+        let radiance = Run {
+            seconds: self.radiance_seconds,
+            ..Run::new("radiance", Role::Reference, 2, (0.0, 4 * rays), None)
+        };
+        let wfic = Run {
+            seconds: self.wfic_seconds,
+            ..Run::new(
+                "wfic",
+                Role::Reference,
+                2,
+                (0.0, s.rays_per_record),
+                Some(s),
+            )
+        };
         [
             self.radiance().measured(radiance, &self.radiance, 0),
             self.wfic().measured(wfic, &self.wfic_own[0], 0),
@@ -181,69 +191,64 @@ impl SceneReferences {
     }
 }
 
-/// The matched settings, Radiance's and wfic's, at 1 and 2 workers, `repeats` renders each;
-/// and each renderer's first image at 1 worker.
+/// The matched settings, Radiance's and wfic's, at 1 and 2 workers, `repeats` renders each, into
+/// `runs`; and each renderer's first image at 1 worker, Radiance's first.
 pub(super) fn matched(
     config: &RadianceConfig,
     scene: &Scene,
     rtrace: &Rtrace,
     refs: &SceneReferences,
-) -> Result<(Vec<Run>, Image, Image), String> {
-    let (name, n, a) = (scene.name(), config.rays, config.accuracy);
+    runs: &mut Vec<Run>,
+) -> Result<Vec<Image>, String> {
+    let (name, n, a, ar) = (
+        scene.name(),
+        config.rays,
+        config.accuracy,
+        config.resolution,
+    );
     let repeats = config.repeats.max(1);
-    let mut runs = Vec::new();
-    let mut radiance_images = Vec::new();
+    let mut images = Vec::new();
+    let mut keep = |(run, img): (Run, Image)| {
+        if run.workers == 1 {
+            images.push(img);
+        }
+        runs.push(run);
+    };
     for workers in [1, 2] {
-        let rows = repeat(repeats as usize, |i| {
+        let row = Run::new("radiance", Role::Matched, workers, (a, n), None);
+        keep(refs.radiance().frames(&row, repeats as usize, |i| {
             say!(
                 name,
-                "radiance: -aa {a} -ad {n} -ar {}, {workers} process(es), run {} of {repeats}",
-                config.resolution,
+                "radiance: -aa {a} -ad {n} -ar {ar}, {workers} process(es), run {} of {repeats}",
                 i + 1
             );
-            let setting = (a, n, config.resolution);
-            let (img, seconds, records, _) =
-                rtrace.cached(setting, workers, &format!("amb-{workers}-{i}"))?;
-            let run = Run::new(
-                "radiance",
-                Role::Matched,
-                workers,
-                None,
-                (a, n),
-                (seconds, records),
-            );
-            let run = refs.radiance().measured(run, &img, 0);
-            if i == 0 {
-                radiance_images.push(img);
-            }
-            Ok::<_, String>(run)
-        })?;
-        runs.push(Run::combine(rows));
+            let amb = format!("amb-{workers}-{i}");
+            let (img, seconds, records, _) = rtrace.cached((a, n, ar), workers, &amb)?;
+            Ok((img, seconds, records))
+        })?);
     }
     let base = config.settings(a, n, config.light_samples, 0x5eed);
-    let mut wfic_images = Vec::new();
     for workers in [1, 2] {
         say!(
             name,
             "wfic: wf, a {a}, {n} rays, {workers} thread(s), {repeats} seed(s)"
         );
-        let (run, img) = refs
-            .wfic()
-            .wfic_frames(scene, Role::Matched, &base, workers)?;
-        runs.push(run);
-        wfic_images.push(img);
+        keep(
+            refs.wfic()
+                .wfic_frames(scene, Role::Matched, &base, workers)?,
+        );
     }
-    let (rad, wf) = (radiance_images.swap_remove(0), wfic_images.swap_remove(0));
-    Ok((runs, rad, wf))
+    Ok(images)
 }
 
-/// The sweep of wfic's settings at 2 threads, each row with its settings, against its
-/// reference (whose rays stay `4N`).
+/// The sweep of wfic's settings at 2 threads against its reference (whose rays stay `4N`), into
+/// `runs`; and each row with its settings, cheapest first.
 pub(super) fn sweep(
     config: &RadianceConfig,
     scene: &Scene,
     refs: &References,
     target: f64,
+    runs: &mut Vec<Run>,
 ) -> Result<Vec<(Run, RenderSettings)>, String> {
     let mut swept = Vec::new();
     for &scale in &config.sweep_accuracy_scales {
@@ -267,11 +272,13 @@ pub(super) fn sweep(
                         100.0 * run.cache_error.rel_rmse,
                         100.0 * target
                     );
+                    runs.push(run.clone());
                     swept.push((run, s));
                 }
             }
         }
     }
+    swept.sort_by(|x, y| x.0.seconds.total_cmp(&y.0.seconds));
     Ok(swept)
 }
 
@@ -280,12 +287,27 @@ pub(super) fn sweep(
 /// order).
 const PICK_TRIES: usize = 4;
 
-/// A worker count's pick: whether it reached Radiance's error, its setting, its frames at 1
-/// and 2 workers (as measured so far), the worker counts it is the pick of.
-pub(super) type Pick = (bool, RenderSettings, [Option<Run>; 2], Vec<usize>);
+/// A pick: whether it reached Radiance's error, its setting, its frames at 1 and 2 workers
+/// measured so far, the worker counts it is the pick of.
+struct Pick {
+    reached: bool,
+    setting: RenderSettings,
+    frames: [Option<Run>; 2],
+    counts: Vec<usize>,
+}
 
-/// Whether two settings are the same cache setting.
-fn same(x: &RenderSettings, y: &RenderSettings) -> bool {
+/// Each worker count's pick: the cheapest swept setting at or below Radiance's error at that
+/// count (`targets[w]`) whose frame at that count, rendered again, errs at or below it too (up
+/// to [`PICK_TRIES`]); the most accurate swept one when none holds. One setting serves both
+/// counts when it is the same. Into `runs`: the frames that erred above ([`Role::PickTried`]),
+/// then each pick rendered at 1 and 2 workers. Returns the 1-worker pick's setting.
+pub(super) fn picks(
+    scene: &Scene,
+    refs: &References,
+    swept: &[(Run, RenderSettings)],
+    targets: [f64; 2],
+    runs: &mut Vec<Run>,
+) -> Result<RenderSettings, String> {
     let key = |s: &RenderSettings| {
         (
             s.accuracy,
@@ -294,20 +316,6 @@ fn same(x: &RenderSettings, y: &RenderSettings) -> bool {
             s.smoothing,
         )
     };
-    key(x) == key(y)
-}
-
-/// Each worker count's pick: the cheapest swept setting at or below Radiance's error at that
-/// count (`targets[w]`) whose frame at that count, rendered again, errs at or below it too (up
-/// to [`PICK_TRIES`]); the most accurate swept one when none holds. Frames that erred above go
-/// to `runs` as [`Role::PickTried`]. One setting serves both counts when it is the same.
-pub(super) fn picks(
-    scene: &Scene,
-    refs: &References,
-    swept: &[(Run, RenderSettings)],
-    targets: [f64; 2],
-    runs: &mut Vec<Run>,
-) -> Result<Vec<Pick>, String> {
     let mut picks: Vec<Pick> = Vec::new();
     for (w, &t) in targets.iter().enumerate() {
         let workers = w + 1;
@@ -317,15 +325,6 @@ pub(super) fn picks(
             .filter(|(r, _)| r.cache_error.rel_rmse <= t)
             .take(PICK_TRIES)
         {
-            if let Some((_, earlier, frames, _)) =
-                picks.iter().find(|(ok, p, _, _)| *ok && same(p, st))
-            {
-                // The other count's pick: its frame at this count is measured already.
-                if let Some(run) = frames[w].as_ref().filter(|r| r.cache_error.rel_rmse <= t) {
-                    found = Some((earlier.clone(), run.clone()));
-                    break;
-                }
-            }
             let run = refs.wfic(scene, Role::PickTried, st, workers)?;
             say!(
                 scene.name(),
@@ -335,36 +334,54 @@ pub(super) fn picks(
                 100.0 * t
             );
             if run.cache_error.rel_rmse <= t {
-                found = Some((st.clone(), run));
+                found = Some((st, run));
                 break;
             }
             runs.push(run);
         }
-        let (reached, st, run) = match found {
-            Some((st, run)) => (true, st, Some(run)),
-            None => {
-                let most = swept
-                    .iter()
-                    .min_by(|x, y| {
-                        x.0.cache_error
-                            .rel_rmse
-                            .total_cmp(&y.0.cache_error.rel_rmse)
-                    })
-                    .expect("the sweep is not empty");
-                (false, most.1.clone(), None)
-            }
-        };
-        if let Some(pick) = picks
+        let reached = found.is_some();
+        let (setting, frame) = found.map_or_else(
+            || {
+                let most = swept.iter().min_by(|x, y| {
+                    x.0.cache_error
+                        .rel_rmse
+                        .total_cmp(&y.0.cache_error.rel_rmse)
+                });
+                (&most.expect("the sweep is not empty").1, None)
+            },
+            |(st, run)| (st, Some(run)),
+        );
+        match picks
             .iter_mut()
-            .find(|(ok, p, _, _)| *ok == reached && same(p, &st))
+            .find(|p| p.reached == reached && key(&p.setting) == key(setting))
         {
-            pick.2[w] = pick.2[w].take().or(run);
-            pick.3.push(workers);
-        } else {
-            let mut frames = [None, None];
-            frames[w] = run;
-            picks.push((reached, st, frames, vec![workers]));
+            Some(pick) => {
+                pick.frames[w] = frame;
+                pick.counts.push(workers);
+            }
+            None => {
+                let mut frames = [None, None];
+                frames[w] = frame;
+                let setting = setting.clone();
+                picks.push(Pick {
+                    reached,
+                    setting,
+                    frames,
+                    counts: vec![workers],
+                });
+            }
         }
     }
-    Ok(picks)
+    for pick in &mut picks {
+        let workers = (pick.counts.len() == 1).then(|| pick.counts[0]);
+        let role = Role::pick(pick.reached, workers);
+        for (w, frame) in pick.frames.iter_mut().enumerate() {
+            let run = match frame.take() {
+                Some(run) => run,
+                None => refs.wfic(scene, role, &pick.setting, w + 1)?,
+            };
+            runs.push(Run { role, ..run });
+        }
+    }
+    Ok(picks.swap_remove(0).setting)
 }
