@@ -320,8 +320,8 @@ pub fn compare_scene(
     );
     let rtrace = Rtrace::prepare(bin, scene, &base, config.reference_stride, &work)?;
     let load = rtrace.load_seconds()?;
-    let refs = SceneReferences::render(config, scene, &rtrace)?;
-    let mut runs = refs.rows(config.rays).to_vec();
+    let mut runs = Vec::new();
+    let refs = SceneReferences::render(config, scene, &rtrace, &mut runs)?;
     let images = matched(config, scene, &rtrace, &refs, &mut runs)?;
     // Radiance's cache error at 1 and at 2 workers: each worker count gets the cheapest sweep
     // setting at or below its own (2 workers usually err less: they place more records).
@@ -329,14 +329,13 @@ pub fn compare_scene(
         let radiance = find(&runs, "radiance", Role::Matched, w).expect("measured above");
         radiance.cache_error.rel_rmse
     });
-    let wfic_refs = refs.wfic();
-    let swept = sweep(config, scene, &wfic_refs, targets[0], &mut runs)?;
-    let pick = picks(scene, &wfic_refs, &swept, targets, &mut runs)?;
+    let swept = sweep(config, scene, &refs, targets[0], &mut runs)?;
+    let pick = picks(scene, &refs, &swept, targets, &mut runs)?;
     // Image noise against light samples, at the 1-worker pick, 1 and 2 threads.
     for &l in &config.light_sweep {
         let s = pick.clone().light_samples(l);
         for workers in [1, 2] {
-            let run = wfic_refs.wfic(scene, Role::LightSamples, &s, workers)?;
+            let run = refs.wfic(scene, Role::LightSamples, &s, workers)?;
             if workers == 2 {
                 let (secs, e) = (run.seconds, 100.0 * run.image_error.rel_rmse);
                 say!(&name, "light samples {l}: {secs:.3} s, image error {e:.2}%");

@@ -1,5 +1,6 @@
 //! The comparison's schedule, one scene's: both renderers' references, the matched settings,
-//! the sweep of wfic's settings and each worker count's pick.
+//! the sweep of wfic's settings and each worker count's pick. Each step adds its rows to the
+//! scene's runs.
 
 use super::{report, say, RadianceConfig, Role, Rtrace, Run};
 use crate::harness::measure::repeat;
@@ -13,23 +14,82 @@ fn seed_of(i: u32) -> u64 {
     0x5eed + 0x1_0000 * u64::from(i)
 }
 
-/// The images a comparison measures against: the renderer's own brute-force images (wfic: one
-/// per seed, repeat `i` against `own[i]`; Radiance: one, every repeat against it), the
-/// converged one, the pixels measured.
-pub(super) struct References<'a> {
-    own: &'a [Image],
-    converged: &'a Image,
-    mask: &'a [bool],
+/// The images a scene's rows are measured against: each renderer's own brute-force images
+/// (wfic: one per seed, repeat `i` against `wfic_own[i]`; Radiance: one, every repeat against
+/// it), wfic's converged one, the pixels measured.
+pub(super) struct SceneReferences {
+    pub(super) mask: Vec<bool>,
+    pub(super) radiance: Image,
+    pub(super) wfic_own: Vec<Image>,
+    pub(super) converged: Image,
 }
 
-impl References<'_> {
-    /// `run` with its errors: `img` against the own reference of `repeat` and the converged one.
-    fn measured(&self, mut run: Run, img: &Image, repeat: usize) -> Run {
-        let own = &self.own[repeat.min(self.own.len() - 1)];
-        run.cache_error = image_error(img, own, self.mask);
-        run.image_error = image_error(img, self.converged, self.mask);
-        run.cache_error_range = (run.cache_error.rel_rmse, run.cache_error.rel_rmse);
-        run
+impl SceneReferences {
+    /// Radiance's brute-force image, wfic's one per seed and the converged one; their own rows
+    /// into `runs`.
+    pub(super) fn render(
+        config: &RadianceConfig,
+        scene: &Scene,
+        rtrace: &Rtrace,
+        runs: &mut Vec<Run>,
+    ) -> Result<Self, String> {
+        let (name, n4, k) = (scene.name(), 4 * config.rays, config.reference_stride);
+        say!(
+            name,
+            "radiance reference: -aa 0 -ad {n4}, 2 processes, 1 pixel in {}",
+            k * k
+        );
+        let (radiance, radiance_seconds) = rtrace.reference(n4)?;
+        // wfic's references on the same grid: brute force with the matched light samples (cache
+        // error), and the converged one (image error) with more light samples and another seed.
+        let repeats = config.repeats.max(1);
+        say!(
+            name,
+            "wfic reference: none, {n4} rays, 2 threads, {repeats} seed(s)"
+        );
+        let s = config.settings(config.accuracy, n4, config.light_samples, seed_of(0));
+        let rc = s.cache_config(scene).map_err(|e| e.to_string())?;
+        let camera = scene.camera();
+        let own: Vec<(Image, f64)> = (0..repeats)
+            .map(|i| render_reference_grid(scene, &camera, &s.clone().seed(seed_of(i)), rc, 2, k))
+            .collect();
+        let light = config.converged_light_samples;
+        say!(
+            name,
+            "converged reference: none, {n4} rays, {light} light samples"
+        );
+        let converged_settings = config.settings(config.accuracy, n4, light, 0xc0ffee);
+        let wfic_seconds = own[0].1;
+        let refs = Self {
+            converged: render_reference_grid(scene, &camera, &converged_settings, rc, 2, k).0,
+            mask: surface_mask(scene, &s, k),
+            radiance,
+            wfic_own: own.into_iter().map(|(img, _)| img).collect(),
+        };
+        let radiance = Run::new("radiance", Role::Reference, 2, (0.0, n4), None);
+        let wfic = Run::new("wfic", Role::Reference, 2, (0.0, n4), Some(&s));
+        runs.extend([
+            refs.measured(radiance, &refs.radiance, 0, radiance_seconds),
+            refs.measured(wfic, &refs.wfic_own[0], 0, wfic_seconds),
+        ]);
+        Ok(refs)
+    }
+
+    /// `run` rendered as `img` in `seconds`: `img` against its renderer's own reference of
+    /// `repeat` and the converged one.
+    fn measured(&self, run: Run, img: &Image, repeat: usize, seconds: f64) -> Run {
+        let own = match run.renderer {
+            "radiance" => &self.radiance,
+            _ => &self.wfic_own[repeat],
+        };
+        let cache_error = image_error(img, own, &self.mask);
+        Run {
+            seconds,
+            cache_error,
+            image_error: image_error(img, &self.converged, &self.mask),
+            cache_error_range: (cache_error.rel_rmse, cache_error.rel_rmse),
+            ..run
+        }
     }
 
     /// `repeats` renders of the setting of `row` (`render(i)`: the image, seconds and records
@@ -43,12 +103,15 @@ impl References<'_> {
         let mut first = None;
         let runs = repeat(repeats, |i| {
             let (img, seconds, records) = render(i)?;
-            let run = Run {
+            let run = self.measured(
+                Run {
+                    records,
+                    ..row.clone()
+                },
+                &img,
+                i,
                 seconds,
-                records,
-                ..row.clone()
-            };
-            let run = self.measured(run, &img, i);
+            );
             first.get_or_insert(img);
             Ok::<_, String>(run)
         })?;
@@ -71,7 +134,7 @@ impl References<'_> {
             (s.accuracy, s.rays_per_record),
             Some(s),
         );
-        self.frames(&row, self.own.len(), |i| {
+        self.frames(&row, self.wfic_own.len(), |i| {
             let s = s.clone().seed(seed_of(i as u32));
             let config = s.cache_config(scene).map_err(|e| e.to_string())?;
             let f = render_with_scheme(Scheme::Wf, scene, &scene.camera(), &s, config, workers).0;
@@ -79,7 +142,7 @@ impl References<'_> {
         })
     }
 
-    /// [`Self::wfic_frames`] without the image.
+    /// [`Self::wfic_frames`]' row.
     pub(super) fn wfic(
         &self,
         scene: &Scene,
@@ -88,106 +151,6 @@ impl References<'_> {
         workers: usize,
     ) -> Result<Run, String> {
         Ok(self.wfic_frames(scene, role, s, workers)?.0)
-    }
-}
-
-/// Both renderers' references of one scene, and what they are measured on.
-pub(super) struct SceneReferences {
-    pub(super) mask: Vec<bool>,
-    pub(super) radiance: Image,
-    radiance_seconds: f64,
-    pub(super) wfic_own: Vec<Image>,
-    wfic_seconds: f64,
-    wfic_settings: RenderSettings,
-    pub(super) converged: Image,
-}
-
-impl SceneReferences {
-    /// Radiance's brute-force image, wfic's one per seed and the converged one.
-    pub(super) fn render(
-        config: &RadianceConfig,
-        scene: &Scene,
-        rtrace: &Rtrace,
-    ) -> Result<Self, String> {
-        let (name, n4, k) = (scene.name(), 4 * config.rays, config.reference_stride);
-        say!(
-            name,
-            "radiance reference: -aa 0 -ad {n4}, 2 processes, 1 pixel in {}",
-            k * k
-        );
-        let (radiance, radiance_seconds) = rtrace.reference(n4)?;
-        // wfic's references on the same grid: brute force with the matched light samples (cache
-        // error), and the converged one (image error) with more light samples and another seed.
-        let repeats = config.repeats.max(1);
-        say!(
-            name,
-            "wfic reference: none, {n4} rays, 2 threads, {repeats} seed(s)"
-        );
-        let wfic_settings = config.settings(config.accuracy, n4, config.light_samples, seed_of(0));
-        let rc = wfic_settings
-            .cache_config(scene)
-            .map_err(|e| e.to_string())?;
-        let camera = scene.camera();
-        let own: Vec<(Image, f64)> = (0..repeats)
-            .map(|i| {
-                let s = wfic_settings.clone().seed(seed_of(i));
-                render_reference_grid(scene, &camera, &s, rc, 2, k)
-            })
-            .collect();
-        let light = config.converged_light_samples;
-        say!(
-            name,
-            "converged reference: none, {n4} rays, {light} light samples"
-        );
-        let conv_settings = config.settings(config.accuracy, n4, light, 0xc0ffee);
-        Ok(Self {
-            converged: render_reference_grid(scene, &camera, &conv_settings, rc, 2, k).0,
-            mask: surface_mask(scene, &wfic_settings, k),
-            radiance,
-            radiance_seconds,
-            wfic_seconds: own[0].1,
-            wfic_own: own.into_iter().map(|(img, _)| img).collect(),
-            wfic_settings,
-        })
-    }
-
-    pub(super) fn radiance(&self) -> References<'_> {
-        References {
-            own: std::slice::from_ref(&self.radiance),
-            converged: &self.converged,
-            mask: &self.mask,
-        }
-    }
-
-    pub(super) fn wfic(&self) -> References<'_> {
-        References {
-            own: &self.wfic_own,
-            converged: &self.converged,
-            mask: &self.mask,
-        }
-    }
-
-    /// The two references' own rows.
-    pub(super) fn rows(&self, rays: u32) -> [Run; 2] {
-        let s = &self.wfic_settings;
-        let radiance = Run {
-            seconds: self.radiance_seconds,
-            ..Run::new("radiance", Role::Reference, 2, (0.0, 4 * rays), None)
-        };
-        let wfic = Run {
-            seconds: self.wfic_seconds,
-            ..Run::new(
-                "wfic",
-                Role::Reference,
-                2,
-                (0.0, s.rays_per_record),
-                Some(s),
-            )
-        };
-        [
-            self.radiance().measured(radiance, &self.radiance, 0),
-            self.wfic().measured(wfic, &self.wfic_own[0], 0),
-        ]
     }
 }
 
@@ -216,7 +179,7 @@ pub(super) fn matched(
     };
     for workers in [1, 2] {
         let row = Run::new("radiance", Role::Matched, workers, (a, n), None);
-        keep(refs.radiance().frames(&row, repeats as usize, |i| {
+        keep(refs.frames(&row, repeats as usize, |i| {
             say!(
                 name,
                 "radiance: -aa {a} -ad {n} -ar {ar}, {workers} process(es), run {} of {repeats}",
@@ -233,10 +196,7 @@ pub(super) fn matched(
             name,
             "wfic: wf, a {a}, {n} rays, {workers} thread(s), {repeats} seed(s)"
         );
-        keep(
-            refs.wfic()
-                .wfic_frames(scene, Role::Matched, &base, workers)?,
-        );
+        keep(refs.wfic_frames(scene, Role::Matched, &base, workers)?);
     }
     Ok(images)
 }
@@ -246,7 +206,7 @@ pub(super) fn matched(
 pub(super) fn sweep(
     config: &RadianceConfig,
     scene: &Scene,
-    refs: &References,
+    refs: &SceneReferences,
     target: f64,
     runs: &mut Vec<Run>,
 ) -> Result<Vec<(Run, RenderSettings)>, String> {
@@ -287,27 +247,53 @@ pub(super) fn sweep(
 /// order).
 const PICK_TRIES: usize = 4;
 
-/// A pick: whether it reached Radiance's error, its setting, its frames at 1 and 2 workers
-/// measured so far, the worker counts it is the pick of.
-struct Pick {
-    reached: bool,
-    setting: RenderSettings,
-    frames: [Option<Run>; 2],
-    counts: Vec<usize>,
+/// A worker count's pick: the cheapest swept setting (`swept` is cheapest first) at or below
+/// Radiance's error `target` whose frame at that count, rendered again, errs at or below it too
+/// (up to [`PICK_TRIES`]; the frames that erred above go to `runs` as [`Role::PickTried`]);
+/// the most accurate swept one when none holds. Whether it reached `target`, its setting, and
+/// its frame at that count when it did.
+fn pick<'s>(
+    scene: &Scene,
+    refs: &SceneReferences,
+    swept: &'s [(Run, RenderSettings)],
+    (workers, target): (usize, f64),
+    runs: &mut Vec<Run>,
+) -> Result<(bool, &'s RenderSettings, Option<Run>), String> {
+    for (_, st) in swept
+        .iter()
+        .filter(|(r, _)| r.cache_error.rel_rmse <= target)
+        .take(PICK_TRIES)
+    {
+        let run = refs.wfic(scene, Role::PickTried, st, workers)?;
+        say!(
+            scene.name(),
+            "{workers}-worker pick {}: cache error {:.2}% (radiance {:.2}%)",
+            report::wfic_setting(&run),
+            100.0 * run.cache_error.rel_rmse,
+            100.0 * target
+        );
+        if run.cache_error.rel_rmse <= target {
+            return Ok((true, st, Some(run)));
+        }
+        runs.push(run);
+    }
+    let error = |x: &&(Run, RenderSettings)| x.0.cache_error.rel_rmse;
+    let most = swept.iter().min_by(|x, y| error(x).total_cmp(&error(y)));
+    Ok((false, &most.expect("the sweep is not empty").1, None))
 }
 
-/// Each worker count's pick: the cheapest swept setting at or below Radiance's error at that
-/// count (`targets[w]`) whose frame at that count, rendered again, errs at or below it too (up
-/// to [`PICK_TRIES`]); the most accurate swept one when none holds. One setting serves both
-/// counts when it is the same. Into `runs`: the frames that erred above ([`Role::PickTried`]),
-/// then each pick rendered at 1 and 2 workers. Returns the 1-worker pick's setting.
+/// Each worker count's pick (`targets[w]`: Radiance's error at `w + 1` workers), one setting for
+/// both counts when they pick the same, rendered at 1 and 2 workers into `runs`. Returns the
+/// 1-worker pick's setting.
 pub(super) fn picks(
     scene: &Scene,
-    refs: &References,
+    refs: &SceneReferences,
     swept: &[(Run, RenderSettings)],
     targets: [f64; 2],
     runs: &mut Vec<Run>,
 ) -> Result<RenderSettings, String> {
+    let one = pick(scene, refs, swept, (1, targets[0]), runs)?;
+    let two = pick(scene, refs, swept, (2, targets[1]), runs)?;
     let key = |s: &RenderSettings| {
         (
             s.accuracy,
@@ -316,72 +302,24 @@ pub(super) fn picks(
             s.smoothing,
         )
     };
-    let mut picks: Vec<Pick> = Vec::new();
-    for (w, &t) in targets.iter().enumerate() {
-        let workers = w + 1;
-        let mut found = None;
-        for (_, st) in swept
-            .iter()
-            .filter(|(r, _)| r.cache_error.rel_rmse <= t)
-            .take(PICK_TRIES)
-        {
-            let run = refs.wfic(scene, Role::PickTried, st, workers)?;
-            say!(
-                scene.name(),
-                "{workers}-worker pick {}: cache error {:.2}% (radiance {:.2}%)",
-                report::wfic_setting(&run),
-                100.0 * run.cache_error.rel_rmse,
-                100.0 * t
-            );
-            if run.cache_error.rel_rmse <= t {
-                found = Some((st, run));
-                break;
-            }
-            runs.push(run);
-        }
-        let reached = found.is_some();
-        let (setting, frame) = found.map_or_else(
-            || {
-                let most = swept.iter().min_by(|x, y| {
-                    x.0.cache_error
-                        .rel_rmse
-                        .total_cmp(&y.0.cache_error.rel_rmse)
-                });
-                (&most.expect("the sweep is not empty").1, None)
-            },
-            |(st, run)| (st, Some(run)),
-        );
-        match picks
-            .iter_mut()
-            .find(|p| p.reached == reached && key(&p.setting) == key(setting))
-        {
-            Some(pick) => {
-                pick.frames[w] = frame;
-                pick.counts.push(workers);
-            }
-            None => {
-                let mut frames = [None, None];
-                frames[w] = frame;
-                let setting = setting.clone();
-                picks.push(Pick {
-                    reached,
-                    setting,
-                    frames,
-                    counts: vec![workers],
-                });
-            }
-        }
-    }
-    for pick in &mut picks {
-        let workers = (pick.counts.len() == 1).then(|| pick.counts[0]);
-        let role = Role::pick(pick.reached, workers);
-        for (w, frame) in pick.frames.iter_mut().enumerate() {
-            let run = match frame.take() {
+    let setting = one.1.clone();
+    // (role, setting, its frames at 1 and 2 workers measured so far)
+    let picks = if one.0 == two.0 && key(one.1) == key(two.1) {
+        vec![(Role::pick(one.0, None), one.1, [one.2, two.2])]
+    } else {
+        vec![
+            (Role::pick(one.0, Some(1)), one.1, [one.2, None]),
+            (Role::pick(two.0, Some(2)), two.1, [None, two.2]),
+        ]
+    };
+    for (role, st, frames) in picks {
+        for (w, frame) in frames.into_iter().enumerate() {
+            let run = match frame {
                 Some(run) => run,
-                None => refs.wfic(scene, role, &pick.setting, w + 1)?,
+                None => refs.wfic(scene, role, st, w + 1)?,
             };
             runs.push(Run { role, ..run });
         }
     }
-    Ok(picks.swap_remove(0).setting)
+    Ok(setting)
 }
