@@ -313,11 +313,8 @@ pub fn compare_scene(
     let name = scene.name().to_owned();
     let work = out_dir.join(format!("work-{name}"));
     let base = config.settings(config.accuracy, config.rays, config.light_samples, 0x5eed);
-    say!(
-        &name,
-        "exporting {} triangles to Radiance",
-        scene.triangle_count()
-    );
+    let triangles = scene.triangle_count();
+    say!(&name, "exporting {triangles} triangles to Radiance");
     let rtrace = Rtrace::prepare(bin, scene, &base, config.reference_stride, &work)?;
     let load = rtrace.load_seconds()?;
     let mut runs = Vec::new();
@@ -335,7 +332,7 @@ pub fn compare_scene(
     for &l in &config.light_sweep {
         let s = pick.clone().light_samples(l);
         for workers in [1, 2] {
-            let run = refs.wfic(scene, Role::LightSamples, &s, workers)?;
+            let (run, _) = refs.wfic(scene, Role::LightSamples, &s, workers)?;
             if workers == 2 {
                 let (secs, e) = (run.seconds, 100.0 * run.image_error.rel_rmse);
                 say!(&name, "light samples {l}: {secs:.3} s, image error {e:.2}%");
@@ -354,7 +351,7 @@ pub fn compare_scene(
         std::fs::remove_dir_all(&work).ok();
     }
     Ok(SceneComparison {
-        triangles: scene.triangle_count(),
+        triangles,
         source: scenes::info(&name).map_or("file", |i| i.source.name()),
         radiance_load_seconds: load,
         oconv_seconds: rtrace.oconv_seconds,

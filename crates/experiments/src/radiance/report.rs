@@ -5,37 +5,30 @@
 use super::{RadianceConfig, Role, Run, SceneComparison};
 use crate::harness::metrics::ImageError;
 use crate::harness::table::{pct, Table};
+use image::{Rgb, RgbImage};
 use std::path::Path;
 use wfic_render::film::Image;
 use wfic_render::scene::luminance;
 
 /// A false-colour map of `|L - L_ref| / L_ref` (black 0, through red, to yellow-white at 20% and
 /// above), grey where the pixel is not measured; each measured pixel of the `stride` grid fills
-/// its `stride` x `stride` block.
-fn error_map(img: &Image, reference: &Image, mask: &[bool], stride: u32) -> Vec<[u8; 3]> {
-    let w = img.width();
-    (0..img.pixels().len())
-        .map(|i| {
-            let (x, y) = (i as u32 % w, i as u32 / w);
-            let (gx, gy) = (
-                (x / stride * stride + stride / 2).min(w - 1),
-                (y / stride * stride + stride / 2).min(img.height() - 1),
-            );
-            let j = (gy * w + gx) as usize;
+/// its `stride` x `stride` block. RGB bytes.
+fn error_map(img: &Image, reference: &Image, mask: &[bool], stride: u32) -> Vec<u8> {
+    let (w, h) = (img.width(), img.height());
+    let on_grid = |v: u32, n: u32| (v / stride * stride + stride / 2).min(n - 1);
+    (0..w * h)
+        .flat_map(|i| {
+            let j = (on_grid(i / w, h) * w + on_grid(i % w, w)) as usize;
             if !mask[j] {
                 return [60, 60, 60];
             }
-            let (a, b) = (img.pixels()[j], reference.pixels()[j]);
-            let (la, lb) = (luminance(a), luminance(b));
+            let (la, lb) = (luminance(img.pixels()[j]), luminance(reference.pixels()[j]));
             let e = if lb > 0.0 {
                 ((la - lb).abs() / lb / 0.2).min(1.0)
             } else {
                 1.0
             };
-            let r = (e * 3.0).min(1.0);
-            let g = (e * 3.0 - 1.0).clamp(0.0, 1.0);
-            let bl = (e * 3.0 - 2.0).clamp(0.0, 1.0);
-            [(r * 255.0) as u8, (g * 255.0) as u8, (bl * 255.0) as u8]
+            [0.0, 1.0, 2.0].map(|c| ((e * 3.0 - c).clamp(0.0, 1.0) * 255.0) as u8)
         })
         .collect()
 }
@@ -49,29 +42,21 @@ pub fn write_side_by_side(
     mask: &[bool],
     stride: u32,
 ) -> Result<(), String> {
-    let (w, h) = (wfic.width(), wfic.height());
-    let gap = 8u32;
-    let (cw, ch) = (2 * w + gap, 2 * h + gap);
-    let mut canvas = vec![255u8; (cw * ch * 3) as usize];
+    let (w, h, gap) = (wfic.width(), wfic.height(), 8);
     let exposure = wfic.auto_exposure();
-    let mut blit = |x0: u32, y0: u32, rgb: &[[u8; 3]]| {
-        for (i, p) in rgb.iter().enumerate() {
-            let (x, y) = (x0 + i as u32 % w, y0 + i as u32 / w);
-            let at = ((y * cw + x) * 3) as usize;
-            canvas[at..at + 3].copy_from_slice(p);
-        }
-    };
-    let tone = |img: &Image| -> Vec<[u8; 3]> {
-        img.to_srgb8(exposure)
-            .chunks_exact(3)
-            .map(|c| [c[0], c[1], c[2]])
-            .collect()
-    };
-    blit(0, 0, &tone(radiance));
-    blit(w + gap, 0, &tone(wfic));
-    blit(0, h + gap, &error_map(radiance, radiance_ref, mask, stride));
-    blit(w + gap, h + gap, &error_map(wfic, wfic_ref, mask, stride));
-    image::save_buffer(path, &canvas, cw, ch, image::ColorType::Rgb8)
+    let mut canvas = RgbImage::from_pixel(2 * w + gap, 2 * h + gap, Rgb([255; 3]));
+    let tiles = [
+        (0, 0, radiance.to_srgb8(exposure)),
+        (w + gap, 0, wfic.to_srgb8(exposure)),
+        (0, h + gap, error_map(radiance, radiance_ref, mask, stride)),
+        (w + gap, h + gap, error_map(wfic, wfic_ref, mask, stride)),
+    ];
+    for (x, y, rgb) in tiles {
+        let tile = RgbImage::from_raw(w, h, rgb).expect("a w x h RGB image");
+        image::imageops::replace(&mut canvas, &tile, x.into(), y.into());
+    }
+    canvas
+        .save(path)
         .map_err(|e| format!("{}: {e}", path.display()))
 }
 

@@ -120,7 +120,7 @@ impl SceneReferences {
 
     /// wfic frames (`wf`, a fresh cache) of `scene` at settings `s` on `workers` threads, one
     /// per own reference (each with that reference's seed), as one row; and the first image.
-    fn wfic_frames(
+    pub(super) fn wfic(
         &self,
         scene: &Scene,
         role: Role,
@@ -140,17 +140,6 @@ impl SceneReferences {
             let f = render_with_scheme(Scheme::Wf, scene, &scene.camera(), &s, config, workers).0;
             Ok((f.image, f.stats.seconds, f.stats.cache_records))
         })
-    }
-
-    /// [`Self::wfic_frames`]' row.
-    pub(super) fn wfic(
-        &self,
-        scene: &Scene,
-        role: Role,
-        s: &RenderSettings,
-        workers: usize,
-    ) -> Result<Run, String> {
-        Ok(self.wfic_frames(scene, role, s, workers)?.0)
     }
 }
 
@@ -196,7 +185,7 @@ pub(super) fn matched(
             name,
             "wfic: wf, a {a}, {n} rays, {workers} thread(s), {repeats} seed(s)"
         );
-        keep(refs.wfic_frames(scene, Role::Matched, &base, workers)?);
+        keep(refs.wfic(scene, Role::Matched, &base, workers)?);
     }
     Ok(images)
 }
@@ -222,7 +211,7 @@ pub(super) fn sweep(
                         .settings(sa, sn, config.light_samples, 0x5eed)
                         .smoothing(k);
                     s.min_radius_pixels = rmin;
-                    let run = refs.wfic(scene, Role::Sweep, &s, 2)?;
+                    let (run, _) = refs.wfic(scene, Role::Sweep, &s, 2)?;
                     say!(
                         scene.name(),
                         "sweep {}: {:.3} s, {} records, cache error {:.2}% (radiance {:.2}%)",
@@ -264,7 +253,7 @@ fn pick<'s>(
         .filter(|(r, _)| r.cache_error.rel_rmse <= target)
         .take(PICK_TRIES)
     {
-        let run = refs.wfic(scene, Role::PickTried, st, workers)?;
+        let (run, _) = refs.wfic(scene, Role::PickTried, st, workers)?;
         say!(
             scene.name(),
             "{workers}-worker pick {}: cache error {:.2}% (radiance {:.2}%)",
@@ -316,7 +305,7 @@ pub(super) fn picks(
         for (w, frame) in frames.into_iter().enumerate() {
             let run = match frame {
                 Some(run) => run,
-                None => refs.wfic(scene, role, st, w + 1)?,
+                None => refs.wfic(scene, role, st, w + 1)?.0,
             };
             runs.push(Run { role, ..run });
         }
