@@ -156,18 +156,10 @@ fn matched_markdown(results: &[SceneComparison]) -> String {
     }
     let setting = |run: &Run| {
         let (l, r) = (run.light_samples, run.min_radius_pixels);
-        let wfic = format!(" L {l} r_min {r} px{}", smoothing_label(run));
-        let extra = if run.renderer == "wfic" {
-            wfic.as_str()
-        } else {
-            ""
-        };
-        format!(
-            "{}: a {} N {}{extra}",
-            run.role.name(),
-            run.accuracy,
-            run.rays
-        )
+        let wfic = (run.renderer == "wfic")
+            .then(|| format!(" L {l} r_min {r} px{}", smoothing_label(run)));
+        let (role, a, n) = (run.role.name(), run.accuracy, run.rays);
+        format!("{role}: a {a} N {n}{}", wfic.unwrap_or_default())
     };
     let records = |run: &Run, one: &Run| {
         let ratio = run.records as f64 / one.records.max(1) as f64;
@@ -196,73 +188,64 @@ fn matched_markdown(results: &[SceneComparison]) -> String {
         .markdown(&rows)
 }
 
-/// One row of the equal-error table: a scene's worker count, Radiance's matched run, the
-/// count's pick and its frame at that count, and the pick's extra records at 2 workers.
-struct EqualError<'a> {
-    scene: &'a str,
-    workers: usize,
-    rad: &'a Run,
-    role: Role,
-    wf: &'a Run,
-    extra: f64,
+/// The extra records of the pick in `role` at 2 workers over 1.
+fn extra_records(r: &SceneComparison, role: Role) -> f64 {
+    match (r.find("wfic", role, 1), r.find("wfic", role, 2)) {
+        (Some(a), Some(b)) => b.records as f64 / a.records.max(1) as f64 - 1.0,
+        _ => f64::NAN,
+    }
 }
 
-/// The time at equal error, each scene's worker counts.
+/// The time at equal error, each scene's worker counts: Radiance's matched row beside the
+/// count's pick at that count.
 fn equal_error_markdown(results: &[SceneComparison]) -> String {
     let mut rows = Vec::new();
     for r in results {
         for workers in [1, 2] {
             // This worker count's pick: one setting for both counts, or one each.
-            let pick = Role::pick;
             let own = [None, None, Some(workers), Some(workers)];
-            let wfic = own
+            let wf = own
                 .into_iter()
                 .zip([true, false, true, false])
-                .find_map(|(w, ok)| {
-                    let role = pick(ok, w);
-                    Some((role, r.find("wfic", role, workers)?))
-                });
-            let (Some((role, wf)), Some(rad)) = (wfic, r.find("radiance", Role::Matched, workers))
-            else {
-                continue;
-            };
-            let extra = match (r.find("wfic", role, 1), r.find("wfic", role, 2)) {
-                (Some(a), Some(b)) => b.records as f64 / a.records.max(1) as f64 - 1.0,
-                _ => f64::NAN,
-            };
-            let scene = &r.scene;
-            rows.push(EqualError {
-                scene,
-                workers,
-                rad,
-                role,
-                wf,
-                extra,
-            });
+                .find_map(|(w, ok)| r.find("wfic", Role::pick(ok, w), workers));
+            if let (Some(wf), Some(rad)) = (wf, r.find("radiance", Role::Matched, workers)) {
+                rows.push((r, rad, wf));
+            }
         }
     }
     let t = Table::new()
-        .md("scene", |e: &EqualError| e.scene.to_owned())
-        .left()
-        .md("workers", |e| e.workers.to_string())
-        .md("radiance s", |e| secs(e.rad.seconds))
-        .md("radiance cache error (range)", |e| with_range(e.rad))
-        .md("wfic setting", |e| {
-            format!("{}: {}", e.role.name(), wfic_setting(e.wf))
+        .md("scene", |(r, ..): &(&SceneComparison, &Run, &Run)| {
+            r.scene.clone()
         })
         .left()
-        .md("wfic s", |e| secs(e.wf.seconds))
-        .md("wfic cache error (range)", |e| with_range(e.wf))
-        .md("time ratio wfic/radiance", |e| {
-            format!("{:.4}", e.wf.seconds / e.rad.seconds)
+        .md("workers", |(_, _, wf)| wf.workers.to_string())
+        .md("radiance s", |(_, rad, _)| secs(rad.seconds))
+        .md("radiance cache error (range)", |(_, rad, _)| {
+            with_range(rad)
         })
-        .md("goal <= 0.1", |e| {
-            speed_goal(e.role, e.wf, e.rad).to_owned()
+        .md("wfic setting", |(_, _, wf)| {
+            format!("{}: {}", wf.role.name(), wfic_setting(wf))
         })
         .left()
-        .md("extra records at 2 (wfic)", |e| pct(e.extra))
-        .md("goal <= 2%", |e| {
-            if e.extra <= 0.02 { "yes" } else { "NO" }.to_owned()
+        .md("wfic s", |(_, _, wf)| secs(wf.seconds))
+        .md("wfic cache error (range)", |(_, _, wf)| with_range(wf))
+        .md("time ratio wfic/radiance", |(_, rad, wf)| {
+            format!("{:.4}", wf.seconds / rad.seconds)
+        })
+        .md("goal <= 0.1", |(_, rad, wf)| {
+            speed_goal(wf.role, wf, rad).to_owned()
+        })
+        .left()
+        .md("extra records at 2 (wfic)", |(r, _, wf)| {
+            pct(extra_records(r, wf.role))
+        })
+        .md("goal <= 2%", |(r, _, wf)| {
+            if extra_records(r, wf.role) <= 0.02 {
+                "yes"
+            } else {
+                "NO"
+            }
+            .to_owned()
         })
         .left();
     format!("\n## Time at equal error\n\n{}", t.markdown(&rows))

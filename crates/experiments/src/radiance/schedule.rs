@@ -127,13 +127,8 @@ impl SceneReferences {
         s: &RenderSettings,
         workers: usize,
     ) -> Result<(Run, Image), String> {
-        let row = Run::new(
-            "wfic",
-            role,
-            workers,
-            (s.accuracy, s.rays_per_record),
-            Some(s),
-        );
+        let setting = (s.accuracy, s.rays_per_record);
+        let row = Run::new("wfic", role, workers, setting, Some(s));
         self.frames(&row, self.wfic_own.len(), |i| {
             let s = s.clone().seed(seed_of(i as u32));
             let config = s.cache_config(scene).map_err(|e| e.to_string())?;
