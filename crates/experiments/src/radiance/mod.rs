@@ -31,37 +31,28 @@ pub struct RadianceConfig {
     pub resolution: u32,
     /// wfic's light samples per primary hit in the matched runs.
     pub light_samples: u32,
-    /// The accuracies of the sweep as multiples of `accuracy` (each with every multiple of
-    /// [`RadianceConfig::sweep_rays_scales`]). Above 1 as well as below: wfic's cache error is
-    /// mostly its records' own hemisphere noise, so fewer records of more rays can be both
-    /// cheaper and more accurate.
+    /// The sweep's accuracies as multiples of `accuracy`, above 1 as well as below (fewer
+    /// records of more rays can be both cheaper and more accurate).
     pub sweep_accuracy_scales: Vec<f32>,
-    /// The rays per record of the sweep as multiples of `rays`: steps of an eighth around the
-    /// matched count, a sixteenth at the low end, so the cheapest setting at Radiance's error
-    /// is not missed by a coarse step.
+    /// The sweep's rays per record as multiples of `rays`, in steps fine enough not to miss
+    /// the cheapest setting at Radiance's error.
     pub sweep_rays_scales: Vec<f32>,
-    /// The light-sample counts of the image-noise study: from 1, so the smallest count whose
-    /// image noise is at or below Radiance's is found, not only bounded.
+    /// The light-sample counts of the image-noise study, from 1.
     pub light_sweep: Vec<u32>,
     /// Light samples of the converged reference.
     pub converged_light_samples: u32,
-    /// The lower radius clamps of the sweep, in pixel footprints (wfic's `min_radius_pixels`;
-    /// Radiance clamps by `-ar` instead).
+    /// The sweep's lower radius clamps in pixel footprints (wfic's `min_radius_pixels`).
     pub sweep_min_radius: Vec<f32>,
-    /// The smoothings of the sweep (wfic's [`RenderSettings::smoothing`]: pixels interpolate
-    /// the records valid at `k a`, records are placed at `a` as without it). The matched runs
-    /// keep 1, Ward's cache as Radiance has it.
+    /// The sweep's smoothings ([`RenderSettings::smoothing`]; the matched runs keep 1).
     pub sweep_smoothing: Vec<f32>,
-    /// The brute-force references are traced at one pixel of each `stride` x `stride` block
-    /// (every error is measured on those pixels), so they cost `1 / stride^2` of a full image.
+    /// The references are traced, and every error measured, at one pixel of each `stride` x
+    /// `stride` block.
     pub reference_stride: u32,
     /// Keep the exported scene, rays and ambient files (`DIR/work-NAME/`).
     pub keep_work: bool,
-    /// Renders of every measured setting: one frame's cache error moves between seeds and its
-    /// time between runs by as much as the margins the goal is decided by.
+    /// Renders of every measured setting (one frame's error and time move by the goals' margins).
     pub repeats: u32,
 }
-
 impl RadianceConfig {
     /// The full comparison: 256 x 256, `rtrace -ab 1 -ad 512 -aa 0.15 -ar 128`, references at
     /// one pixel in 16.
@@ -163,13 +154,7 @@ impl Role {
     }
 }
 
-impl std::fmt::Display for Role {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(self.name())
-    }
-}
-
-/// One measured render.
+/// One measured row: a render, or the renders of one setting.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Run {
     /// `radiance` or `wfic`.
@@ -204,15 +189,14 @@ pub struct Run {
 }
 
 impl Run {
-    /// A row of one render of `renderer` in `role` at `workers`, with wfic's settings `s`
-    /// (`None`: Radiance) and the `(accuracy, rays)` it ran at; errors not yet measured.
+    /// A row of `renderer` in `role` at `workers` and `(accuracy, rays)`, with wfic's settings
+    /// `s` (`None`: Radiance); not yet rendered.
     fn new(
         renderer: &'static str,
         role: Role,
         workers: usize,
-        s: Option<&RenderSettings>,
         (accuracy, rays): (f32, u32),
-        (seconds, records): (f64, usize),
+        s: Option<&RenderSettings>,
     ) -> Self {
         Run {
             renderer,
@@ -223,8 +207,8 @@ impl Run {
             light_samples: s.map_or(0, |s| s.light_samples),
             min_radius_pixels: s.map_or(0.0, |s| s.min_radius_pixels),
             smoothing: s.map_or(1.0, |s| s.smoothing),
-            seconds,
-            records,
+            seconds: 0.0,
+            records: 0,
             cache_error: ImageError::default(),
             image_error: ImageError::default(),
             repeats: 1,
@@ -236,23 +220,27 @@ impl Run {
     /// errors, the range of the cache error.
     pub fn combine(runs: Vec<Run>) -> Run {
         assert!(!runs.is_empty(), "a row needs a render");
-        let mean = |f: &dyn Fn(&Run) -> f64| stats::mean(runs.iter().map(f));
-        let mut row = runs[0].clone();
-        row.seconds = median(&runs.iter().map(|r| r.seconds).collect::<Vec<_>>());
+        let mean_error = |e: fn(&Run) -> ImageError| ImageError {
+            rel_rmse: stats::mean(runs.iter().map(|r| e(r).rel_rmse)),
+            mean_rel: stats::mean(runs.iter().map(|r| e(r).mean_rel)),
+        };
         let records: Vec<f64> = runs.iter().map(|r| r.records as f64).collect();
-        row.records = median(&records).round() as usize;
-        row.cache_error = ImageError {
-            rel_rmse: mean(&|r| r.cache_error.rel_rmse),
-            mean_rel: mean(&|r| r.cache_error.mean_rel),
-        };
-        row.image_error = ImageError {
-            rel_rmse: mean(&|r| r.image_error.rel_rmse),
-            mean_rel: mean(&|r| r.image_error.mean_rel),
-        };
-        row.cache_error_range = stats::range(runs.iter().map(|r| r.cache_error.rel_rmse));
-        row.repeats = runs.iter().map(|r| r.repeats).sum();
-        row
+        Run {
+            seconds: median(&runs.iter().map(|r| r.seconds).collect::<Vec<_>>()),
+            records: median(&records).round() as usize,
+            cache_error: mean_error(|r| r.cache_error),
+            image_error: mean_error(|r| r.image_error),
+            cache_error_range: stats::range(runs.iter().map(|r| r.cache_error.rel_rmse)),
+            repeats: runs.iter().map(|r| r.repeats).sum(),
+            ..runs[0].clone()
+        }
     }
+}
+
+/// The run of `renderer` in `role` at `workers` among `runs`, if measured.
+fn find<'a>(runs: &'a [Run], renderer: &str, role: Role, workers: usize) -> Option<&'a Run> {
+    runs.iter()
+        .find(|r| r.renderer == renderer && r.role == role && r.workers == workers)
 }
 
 /// One scene's comparison.
@@ -260,7 +248,7 @@ impl Run {
 pub struct SceneComparison {
     /// The scene.
     pub scene: String,
-    /// Triangles, and whether the scene is a real model or a stand-in.
+    /// Triangles.
     pub triangles: usize,
     /// `real` or `stand-in`.
     pub source: &'static str,
@@ -268,10 +256,10 @@ pub struct SceneComparison {
     pub radiance_load_seconds: f64,
     /// Seconds of `oconv` (not included anywhere, like wfic's BVH build).
     pub oconv_seconds: f64,
-    /// Every measured render.
+    /// Every measured row.
     pub runs: Vec<Run>,
-    /// wfic's brute-force image, Radiance's brute-force image against it (the cross-check that
-    /// both render the same scene).
+    /// Radiance's brute-force image against wfic's converged one (the cross-check that both
+    /// render the same scene).
     pub cross_check: ImageError,
     /// Mean luminance of Radiance's brute-force image over wfic's converged one (the masked
     /// pixels): 1 when both render the same light, whatever the noise.
@@ -281,9 +269,7 @@ pub struct SceneComparison {
 impl SceneComparison {
     /// The run of `renderer` in `role` at `workers`, if measured.
     pub fn find(&self, renderer: &str, role: Role, workers: usize) -> Option<&Run> {
-        self.runs
-            .iter()
-            .find(|r| r.renderer == renderer && r.role == role && r.workers == workers)
+        find(&self.runs, renderer, role, workers)
     }
 }
 
@@ -299,27 +285,20 @@ pub(crate) use say;
 /// scene into `out_dir`, the files headed by the provenance of `command`.
 pub fn run(config: &RadianceConfig, out_dir: &Path, command: &str) -> Result<(), String> {
     let bin = RadianceBin::find()?;
-    let machine = Machine::detect();
     // Radiance's processes and wfic's threads: 1 and 2 workers.
-    let provenance = Provenance::new(command, &machine, &[1, 2], &[]);
+    let provenance = Provenance::new(command, &Machine::detect(), &[1, 2], &[]);
     let out = Output::new(out_dir, &provenance)?;
-    let version = bin.version();
-    let mut results = Vec::new();
-    for name in &config.scenes {
-        let scene = scenes::load(name)?;
-        results.push(compare_scene(&bin, config, &scene, out_dir)?);
-    }
+    let results = config
+        .scenes
+        .iter()
+        .map(|name| compare_scene(&bin, config, &scenes::load(name)?, out_dir))
+        .collect::<Result<Vec<_>, String>>()?;
     let title = "wfic against Radiance, side by side";
-    out.markdown(
-        "radiance.md",
-        title,
-        &report::markdown(config, &results, &version),
-    )?;
+    let md = report::markdown(config, &results, &bin.version());
+    out.markdown("radiance.md", title, &md)?;
     out.csv("radiance.csv", &report::csv(&results))?;
-    eprintln!(
-        "wrote {}/radiance.md, radiance.csv and the side-by-side images",
-        out_dir.display()
-    );
+    let dir = out_dir.display();
+    eprintln!("wrote {dir}/radiance.md, radiance.csv and the side-by-side images");
     Ok(())
 }
 
@@ -334,67 +313,36 @@ pub fn compare_scene(
     let name = scene.name().to_owned();
     let work = out_dir.join(format!("work-{name}"));
     let base = config.settings(config.accuracy, config.rays, config.light_samples, 0x5eed);
-    say!(
-        &name,
-        "exporting {} triangles to Radiance",
-        scene.triangle_count()
-    );
+    let triangles = scene.triangle_count();
+    say!(&name, "exporting {triangles} triangles to Radiance");
     let rtrace = Rtrace::prepare(bin, scene, &base, config.reference_stride, &work)?;
     let load = rtrace.load_seconds()?;
-    let refs = SceneReferences::render(config, scene, &rtrace)?;
-    let mut runs = refs.rows(config.rays).to_vec();
-    let (matched, radiance_image, wfic_image) = matched(config, scene, &rtrace, &refs)?;
-    runs.extend(matched);
+    let mut runs = Vec::new();
+    let refs = SceneReferences::render(config, scene, &rtrace, &mut runs)?;
+    let images = matched(config, scene, &rtrace, &refs, &mut runs)?;
     // Radiance's cache error at 1 and at 2 workers: each worker count gets the cheapest sweep
     // setting at or below its own (2 workers usually err less: they place more records).
-    let target_at = |workers: usize| {
-        runs.iter()
-            .find(|r| r.renderer == "radiance" && r.role == Role::Matched && r.workers == workers)
-            .map(|r| r.cache_error.rel_rmse)
-            .expect("measured above")
-    };
-    let targets = [target_at(1), target_at(2)];
-    let wfic_refs = refs.wfic();
-    let mut swept = sweep(config, scene, &wfic_refs, targets[0])?;
-    runs.extend(swept.iter().map(|(r, _)| r.clone()));
-    swept.sort_by(|x, y| x.0.seconds.total_cmp(&y.0.seconds));
-    let mut picks = picks(scene, &wfic_refs, &swept, targets, &mut runs)?;
-    for (reached, st, frames, counts) in &mut picks {
-        let workers = if counts.len() == 2 {
-            None
-        } else {
-            counts.first().copied()
-        };
-        let role = Role::pick(*reached, workers);
-        for (w, frame) in frames.iter_mut().enumerate() {
-            let mut run = match frame.take() {
-                Some(run) => run,
-                None => wfic_refs.wfic(scene, role, st, w + 1)?,
-            };
-            run.role = role;
-            runs.push(run);
-        }
-    }
-    // Image noise against light samples, at the 1-worker pick (the first), 1 and 2 threads.
+    let targets = [1, 2].map(|w| {
+        let radiance = find(&runs, "radiance", Role::Matched, w).expect("measured above");
+        radiance.cache_error.rel_rmse
+    });
+    let swept = sweep(config, scene, &refs, targets[0], &mut runs)?;
+    let pick = picks(scene, &refs, &swept, targets, &mut runs)?;
+    // Image noise against light samples, at the 1-worker pick, 1 and 2 threads.
     for &l in &config.light_sweep {
-        let mut s = picks[0].1.clone();
-        s.light_samples = l;
+        let s = pick.clone().light_samples(l);
         for workers in [1, 2] {
-            let run = wfic_refs.wfic(scene, Role::LightSamples, &s, workers)?;
+            let (run, _) = refs.wfic(scene, Role::LightSamples, &s, workers)?;
             if workers == 2 {
-                say!(
-                    &name,
-                    "light samples {l}: {:.3} s, image error {:.2}%",
-                    run.seconds,
-                    100.0 * run.image_error.rel_rmse
-                );
+                let (secs, e) = (run.seconds, 100.0 * run.image_error.rel_rmse);
+                say!(&name, "light samples {l}: {secs:.3} s, image error {e:.2}%");
             }
             runs.push(run);
         }
     }
     report::write_side_by_side(
         &out_dir.join(format!("{name}-side-by-side.png")),
-        [&radiance_image, &wfic_image],
+        [&images[0], &images[1]],
         [&refs.radiance, &refs.wfic_own[0]],
         &refs.mask,
         config.reference_stride,
@@ -403,7 +351,7 @@ pub fn compare_scene(
         std::fs::remove_dir_all(&work).ok();
     }
     Ok(SceneComparison {
-        triangles: scene.triangle_count(),
+        triangles,
         source: scenes::info(&name).map_or("file", |i| i.source.name()),
         radiance_load_seconds: load,
         oconv_seconds: rtrace.oconv_seconds,

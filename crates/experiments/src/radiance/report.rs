@@ -5,37 +5,30 @@
 use super::{RadianceConfig, Role, Run, SceneComparison};
 use crate::harness::metrics::ImageError;
 use crate::harness::table::{pct, Table};
+use image::{Rgb, RgbImage};
 use std::path::Path;
 use wfic_render::film::Image;
 use wfic_render::scene::luminance;
 
 /// A false-colour map of `|L - L_ref| / L_ref` (black 0, through red, to yellow-white at 20% and
 /// above), grey where the pixel is not measured; each measured pixel of the `stride` grid fills
-/// its `stride` x `stride` block.
-fn error_map(img: &Image, reference: &Image, mask: &[bool], stride: u32) -> Vec<[u8; 3]> {
-    let w = img.width();
-    (0..img.pixels().len())
-        .map(|i| {
-            let (x, y) = (i as u32 % w, i as u32 / w);
-            let (gx, gy) = (
-                (x / stride * stride + stride / 2).min(w - 1),
-                (y / stride * stride + stride / 2).min(img.height() - 1),
-            );
-            let j = (gy * w + gx) as usize;
+/// its `stride` x `stride` block. RGB bytes.
+fn error_map(img: &Image, reference: &Image, mask: &[bool], stride: u32) -> Vec<u8> {
+    let (w, h) = (img.width(), img.height());
+    let on_grid = |v: u32, n: u32| (v / stride * stride + stride / 2).min(n - 1);
+    (0..w * h)
+        .flat_map(|i| {
+            let j = (on_grid(i / w, h) * w + on_grid(i % w, w)) as usize;
             if !mask[j] {
                 return [60, 60, 60];
             }
-            let (a, b) = (img.pixels()[j], reference.pixels()[j]);
-            let (la, lb) = (luminance(a), luminance(b));
+            let (la, lb) = (luminance(img.pixels()[j]), luminance(reference.pixels()[j]));
             let e = if lb > 0.0 {
                 ((la - lb).abs() / lb / 0.2).min(1.0)
             } else {
                 1.0
             };
-            let r = (e * 3.0).min(1.0);
-            let g = (e * 3.0 - 1.0).clamp(0.0, 1.0);
-            let bl = (e * 3.0 - 2.0).clamp(0.0, 1.0);
-            [(r * 255.0) as u8, (g * 255.0) as u8, (bl * 255.0) as u8]
+            [0.0, 1.0, 2.0].map(|c| ((e * 3.0 - c).clamp(0.0, 1.0) * 255.0) as u8)
         })
         .collect()
 }
@@ -49,29 +42,21 @@ pub fn write_side_by_side(
     mask: &[bool],
     stride: u32,
 ) -> Result<(), String> {
-    let (w, h) = (wfic.width(), wfic.height());
-    let gap = 8u32;
-    let (cw, ch) = (2 * w + gap, 2 * h + gap);
-    let mut canvas = vec![255u8; (cw * ch * 3) as usize];
+    let (w, h, gap) = (wfic.width(), wfic.height(), 8);
     let exposure = wfic.auto_exposure();
-    let mut blit = |x0: u32, y0: u32, rgb: &[[u8; 3]]| {
-        for (i, p) in rgb.iter().enumerate() {
-            let (x, y) = (x0 + i as u32 % w, y0 + i as u32 / w);
-            let at = ((y * cw + x) * 3) as usize;
-            canvas[at..at + 3].copy_from_slice(p);
-        }
-    };
-    let tone = |img: &Image| -> Vec<[u8; 3]> {
-        img.to_srgb8(exposure)
-            .chunks_exact(3)
-            .map(|c| [c[0], c[1], c[2]])
-            .collect()
-    };
-    blit(0, 0, &tone(radiance));
-    blit(w + gap, 0, &tone(wfic));
-    blit(0, h + gap, &error_map(radiance, radiance_ref, mask, stride));
-    blit(w + gap, h + gap, &error_map(wfic, wfic_ref, mask, stride));
-    image::save_buffer(path, &canvas, cw, ch, image::ColorType::Rgb8)
+    let mut canvas = RgbImage::from_pixel(2 * w + gap, 2 * h + gap, Rgb([255; 3]));
+    let tiles = [
+        (0, 0, radiance.to_srgb8(exposure)),
+        (w + gap, 0, wfic.to_srgb8(exposure)),
+        (0, h + gap, error_map(radiance, radiance_ref, mask, stride)),
+        (w + gap, h + gap, error_map(wfic, wfic_ref, mask, stride)),
+    ];
+    for (x, y, rgb) in tiles {
+        let tile = RgbImage::from_raw(w, h, rgb).expect("a w x h RGB image");
+        image::imageops::replace(&mut canvas, &tile, x.into(), y.into());
+    }
+    canvas
+        .save(path)
         .map_err(|e| format!("{}: {e}", path.display()))
 }
 
@@ -91,6 +76,11 @@ pub fn speed_goal(role: Role, wf: &Run, rad: &Run) -> &'static str {
     }
 }
 
+/// Seconds as the tables give them.
+fn secs(seconds: f64) -> String {
+    format!("{seconds:.3}")
+}
+
 /// An error as `rel. RMSE (mean rel.)`.
 fn both(e: &ImageError) -> String {
     format!("{} ({})", pct(e.rel_rmse), pct(e.mean_rel))
@@ -98,29 +88,19 @@ fn both(e: &ImageError) -> String {
 
 /// A row's mean cache error, with the range of its renders when there were several.
 fn with_range(run: &Run) -> String {
+    let (e, (lo, hi)) = (pct(run.cache_error.rel_rmse), run.cache_error_range);
     if run.repeats > 1 {
-        let (lo, hi) = run.cache_error_range;
-        format!(
-            "{} ({}–{})",
-            pct(run.cache_error.rel_rmse),
-            pct(lo),
-            pct(hi)
-        )
+        format!("{e} ({}–{})", pct(lo), pct(hi))
     } else {
-        pct(run.cache_error.rel_rmse)
+        e
     }
 }
 
 /// A wfic row's setting as the tables name it: `a 0.15 N 320 r_min 6 px`, with `k 1.5` after it
 /// when the row smooths.
 pub fn wfic_setting(run: &Run) -> String {
-    format!(
-        "a {} N {} r_min {} px{}",
-        run.accuracy,
-        run.rays,
-        run.min_radius_pixels,
-        smoothing_label(run)
-    )
+    let (a, n, r) = (run.accuracy, run.rays, run.min_radius_pixels);
+    format!("a {a} N {n} r_min {r} px{}", smoothing_label(run))
 }
 
 /// ` k K` for a row that smooths (K above 1), else nothing.
@@ -134,55 +114,62 @@ fn smoothing_label(run: &Run) -> String {
 
 /// The page's opening: the settings of both renderers.
 fn intro(config: &RadianceConfig, version: &str) -> String {
-    let ((w, h), n, k, a) = (
+    let ((w, h), n, a, k) = (
         config.size,
         config.rays,
-        config.reference_stride,
         config.accuracy,
+        config.reference_stride,
     );
+    let (ar, l, n4) = (config.resolution, config.light_samples, 4 * n);
+    let (converged, repeats) = (config.converged_light_samples, config.repeats.max(1));
     format!(
         "Radiance: {version}.\n\n\
          How to read this page: docs/experiments.md#radiance-side-by-side.\n\n\
-         {w} x {h}, one ray per pixel. Radiance: `rtrace -ab 1 -ad {n} -as 0 -aa {a} -ar {} \
-         -av 0 0 0 -aw 0 -dj 0 -lw 1e-7 -n P -af FILE`; reference `-aa 0 -ad {}`. wfic: `wf`, \
-         accuracy {a}, {n} rays per record, {} light samples; reference `--scheme none` with {} \
-         rays. Converged reference: wfic `none`, {} rays, {} light samples, another seed. Errors \
-         on one pixel of every {k} x {k} block. Every row but the references is {} render(s) of \
-         its setting.\n",
-        config.resolution,
-        4 * n,
-        config.light_samples,
-        4 * n,
-        4 * n,
-        config.converged_light_samples,
-        config.repeats.max(1)
+         {w} x {h}, one ray per pixel. Radiance: `rtrace -ab 1 -ad {n} -as 0 -aa {a} -ar {ar} \
+         -av 0 0 0 -aw 0 -dj 0 -lw 1e-7 -n P -af FILE`; reference `-aa 0 -ad {n4}`. wfic: `wf`, \
+         accuracy {a}, {n} rays per record, {l} light samples; reference `--scheme none` with \
+         {n4} rays. Converged reference: wfic `none`, {n4} rays, {converged} light samples, \
+         another seed. Errors on one pixel of every {k} x {k} block. Every row but the \
+         references is {repeats} render(s) of its setting.\n"
     )
 }
 
 /// A scene's run paired with the scene's comparison, a row of the tables.
 type Row<'a> = (&'a SceneComparison, &'a Run);
 
-/// The matched rows and each pick's, at 1 and 2 workers.
+/// The matched rows and each pick's, at 1 and 2 workers (each beside its 1-worker row).
 fn matched_markdown(results: &[SceneComparison]) -> String {
-    let pick = Role::pick;
+    let picks = [None, Some(1), Some(2)]
+        .into_iter()
+        .flat_map(|w| [true, false].map(|reached| ("wfic", Role::pick(reached, w))));
+    let roles: Vec<_> = [("radiance", Role::Matched), ("wfic", Role::Matched)]
+        .into_iter()
+        .chain(picks)
+        .collect();
     let mut rows: Vec<(Row, &Run)> = Vec::new();
     for r in results {
-        for (renderer, role) in [
-            ("radiance", Role::Matched),
-            ("wfic", Role::Matched),
-            ("wfic", pick(true, None)),
-            ("wfic", pick(false, None)),
-            ("wfic", pick(true, Some(1))),
-            ("wfic", pick(false, Some(1))),
-            ("wfic", pick(true, Some(2))),
-            ("wfic", pick(false, Some(2))),
-        ] {
+        for &(renderer, role) in &roles {
             if let (Some(one), Some(two)) = (r.find(renderer, role, 1), r.find(renderer, role, 2)) {
                 rows.extend([((r, one), one), ((r, two), one)]);
             }
         }
     }
-    let t = Table::new()
+    let setting = |run: &Run| {
+        let (l, r) = (run.light_samples, run.min_radius_pixels);
+        let wfic = (run.renderer == "wfic")
+            .then(|| format!(" L {l} r_min {r} px{}", smoothing_label(run)));
+        let (role, a, n) = (run.role.name(), run.accuracy, run.rays);
+        format!("{role}: a {a} N {n}{}", wfic.unwrap_or_default())
+    };
+    let records = |run: &Run, one: &Run| {
+        let ratio = run.records as f64 / one.records.max(1) as f64;
+        if run.workers == 2 {
+            format!("{ratio:.3}")
+        } else {
+            String::new()
+        }
+    };
+    Table::new()
         .md("scene", |((r, _), _): &(Row, &Run)| r.scene.clone())
         .left()
         .md("triangles", |((r, _), _)| r.triangles.to_string())
@@ -191,176 +178,143 @@ fn matched_markdown(results: &[SceneComparison]) -> String {
         .md("renderer", |((_, run), _)| run.renderer.to_owned())
         .left()
         .md("workers", |((_, run), _)| run.workers.to_string())
-        .md("setting", |((_, run), _)| {
-            let wfic = format!(
-                " L {} r_min {} px{}",
-                run.light_samples,
-                run.min_radius_pixels,
-                smoothing_label(run)
-            );
-            let extra = if run.renderer == "wfic" {
-                wfic
-            } else {
-                String::new()
-            };
-            format!("{}: a {} N {}{extra}", run.role, run.accuracy, run.rays)
-        })
+        .md("setting", move |((_, run), _)| setting(run))
         .left()
-        .md("seconds", |((_, run), _)| format!("{:.3}", run.seconds))
+        .md("seconds", |((_, run), _)| secs(run.seconds))
         .md("records", |((_, run), _)| run.records.to_string())
-        .md("records 2/1", |((_, run), one)| {
-            let ratio = run.records as f64 / one.records.max(1) as f64;
-            if run.workers == 2 {
-                format!("{ratio:.3}")
-            } else {
-                String::new()
-            }
-        })
+        .md("records 2/1", move |((_, run), one)| records(run, one))
         .md("cache error", |((_, run), _)| both(&run.cache_error))
-        .md("image error", |((_, run), _)| both(&run.image_error));
-    t.markdown(&rows)
+        .md("image error", |((_, run), _)| both(&run.image_error))
+        .markdown(&rows)
 }
 
-/// One row of the equal-error table: a scene's worker count, Radiance's matched run, the
-/// count's pick and its frames at 1 and 2 workers.
-struct EqualError<'a> {
-    scene: &'a str,
-    workers: usize,
-    rad: &'a Run,
-    role: Role,
-    wf: &'a Run,
-    extra: f64,
+/// The extra records of the pick in `role` at 2 workers over 1.
+fn extra_records(r: &SceneComparison, role: Role) -> f64 {
+    match (r.find("wfic", role, 1), r.find("wfic", role, 2)) {
+        (Some(a), Some(b)) => b.records as f64 / a.records.max(1) as f64 - 1.0,
+        _ => f64::NAN,
+    }
 }
 
-/// The time at equal error, each scene's worker counts.
+/// The time at equal error, each scene's worker counts: Radiance's matched row beside the
+/// count's pick at that count.
 fn equal_error_markdown(results: &[SceneComparison]) -> String {
     let mut rows = Vec::new();
     for r in results {
         for workers in [1, 2] {
-            // This worker count's pick: one setting for both, or one each.
-            let pick = Role::pick;
-            let own = [
-                pick(true, None),
-                pick(false, None),
-                pick(true, Some(workers)),
-                pick(false, Some(workers)),
-            ];
-            let Some(role) = own
+            // This worker count's pick: one setting for both counts, or one each.
+            let own = [None, None, Some(workers), Some(workers)];
+            let wf = own
                 .into_iter()
-                .find(|&role| r.find("wfic", role, workers).is_some())
-            else {
-                continue;
-            };
-            let (Some(rad), Some(wf)) = (
-                r.find("radiance", Role::Matched, workers),
-                r.find("wfic", role, workers),
-            ) else {
-                continue;
-            };
-            let extra = match (r.find("wfic", role, 1), r.find("wfic", role, 2)) {
-                (Some(a), Some(b)) => b.records as f64 / a.records.max(1) as f64 - 1.0,
-                _ => f64::NAN,
-            };
-            rows.push(EqualError {
-                scene: &r.scene,
-                workers,
-                rad,
-                role,
-                wf,
-                extra,
-            });
+                .zip([true, false, true, false])
+                .find_map(|(w, ok)| r.find("wfic", Role::pick(ok, w), workers));
+            if let (Some(wf), Some(rad)) = (wf, r.find("radiance", Role::Matched, workers)) {
+                rows.push((r, rad, wf));
+            }
         }
     }
     let t = Table::new()
-        .md("scene", |e: &EqualError| e.scene.to_owned())
-        .left()
-        .md("workers", |e| e.workers.to_string())
-        .md("radiance s", |e| format!("{:.3}", e.rad.seconds))
-        .md("radiance cache error (range)", |e| with_range(e.rad))
-        .md("wfic setting", |e| {
-            format!("{}: {}", e.role, wfic_setting(e.wf))
+        .md("scene", |(r, ..): &(&SceneComparison, &Run, &Run)| {
+            r.scene.clone()
         })
         .left()
-        .md("wfic s", |e| format!("{:.3}", e.wf.seconds))
-        .md("wfic cache error (range)", |e| with_range(e.wf))
-        .md("time ratio wfic/radiance", |e| {
-            format!("{:.4}", e.wf.seconds / e.rad.seconds)
+        .md("workers", |(_, _, wf)| wf.workers.to_string())
+        .md("radiance s", |(_, rad, _)| secs(rad.seconds))
+        .md("radiance cache error (range)", |(_, rad, _)| {
+            with_range(rad)
         })
-        .md("goal <= 0.1", |e| {
-            speed_goal(e.role, e.wf, e.rad).to_owned()
+        .md("wfic setting", |(_, _, wf)| {
+            format!("{}: {}", wf.role.name(), wfic_setting(wf))
         })
         .left()
-        .md("extra records at 2 (wfic)", |e| pct(e.extra))
-        .md("goal <= 2%", |e| {
-            if e.extra <= 0.02 { "yes" } else { "NO" }.to_owned()
+        .md("wfic s", |(_, _, wf)| secs(wf.seconds))
+        .md("wfic cache error (range)", |(_, _, wf)| with_range(wf))
+        .md("time ratio wfic/radiance", |(_, rad, wf)| {
+            format!("{:.4}", wf.seconds / rad.seconds)
+        })
+        .md("goal <= 0.1", |(_, rad, wf)| {
+            speed_goal(wf.role, wf, rad).to_owned()
+        })
+        .left()
+        .md("extra records at 2 (wfic)", |(r, _, wf)| {
+            pct(extra_records(r, wf.role))
+        })
+        .md("goal <= 2%", |(r, _, wf)| {
+            if extra_records(r, wf.role) <= 0.02 {
+                "yes"
+            } else {
+                "NO"
+            }
+            .to_owned()
         })
         .left();
     format!("\n## Time at equal error\n\n{}", t.markdown(&rows))
 }
 
+/// One row of the light-sample table: a scene's count, at 2 threads and 1, against Radiance at
+/// 1 and 2 workers, and whether it is at or below Radiance's image error.
+struct Light<'a> {
+    scene: &'a str,
+    two: &'a Run,
+    one: &'a Run,
+    rad: [&'a Run; 2],
+    verdict: &'static str,
+}
+
 /// Image noise against light samples at the pick: each count at 2 threads (1 thread beside
 /// it), and whether it is at or below Radiance's image error; the smallest such count marked.
 fn light_markdown(results: &[SceneComparison]) -> String {
-    // (scene's row at 2 threads, its 1-thread row, Radiance at 1 and 2 workers, verdict)
-    type Light<'a> = (Row<'a>, &'a Run, [&'a Run; 2], &'static str);
-    let mut rows: Vec<Light> = Vec::new();
+    let mut rows = Vec::new();
     for r in results {
         let Some(rad) = r.find("radiance", Role::Matched, 1) else {
             continue;
         };
-        let rad2 = r.find("radiance", Role::Matched, 2).unwrap_or(rad);
-        let light = |workers, samples: Option<u32>| {
-            r.runs.iter().filter(move |x| {
-                x.role == Role::LightSamples
-                    && x.workers == workers
-                    && samples.map_or(true, |l| x.light_samples == l)
-            })
+        let rad = [rad, r.find("radiance", Role::Matched, 2).unwrap_or(rad)];
+        let light = |workers| {
+            r.runs
+                .iter()
+                .filter(move |x| x.role == Role::LightSamples && x.workers == workers)
         };
         let mut first = true;
-        for run in light(2, None) {
-            let one = light(1, Some(run.light_samples)).next().unwrap_or(run);
-            let meets = run.image_error.rel_rmse <= rad.image_error.rel_rmse;
+        for two in light(2) {
+            let one = light(1)
+                .find(|x| x.light_samples == two.light_samples)
+                .unwrap_or(two);
+            let meets = two.image_error.rel_rmse <= rad[0].image_error.rel_rmse;
             let verdict = match (meets, first) {
                 (true, true) => "**yes: the smallest count**",
                 (true, false) => "yes",
                 _ => "no",
             };
-            rows.push(((r, run), one, [rad, rad2], verdict));
+            rows.push(Light {
+                scene: &r.scene,
+                two,
+                one,
+                rad,
+                verdict,
+            });
             first &= !meets;
         }
     }
     let t = Table::new()
-        .md("scene", |((r, _), ..): &Light| r.scene.clone())
+        .md("scene", |l: &Light| l.scene.to_owned())
         .left()
-        .md("radiance image error (1 worker)", |(_, _, [rad, _], _)| {
-            pct(rad.image_error.rel_rmse)
+        .md("radiance image error (1 worker)", |l| {
+            pct(l.rad[0].image_error.rel_rmse)
         })
-        .md("light samples", |((_, run), ..)| {
-            run.light_samples.to_string()
-        })
-        .md("wfic s, 1 thread", |(_, one, ..)| {
-            format!("{:.3}", one.seconds)
-        })
-        .md("wfic s, 2 threads", |((_, run), ..)| {
-            format!("{:.3}", run.seconds)
-        })
-        .md("wfic image error", |((_, run), ..)| {
-            pct(run.image_error.rel_rmse)
-        })
-        .md("at or below radiance", |(.., verdict)| {
-            (*verdict).to_owned()
-        })
+        .md("light samples", |l| l.two.light_samples.to_string())
+        .md("wfic s, 1 thread", |l| secs(l.one.seconds))
+        .md("wfic s, 2 threads", |l| secs(l.two.seconds))
+        .md("wfic image error", |l| pct(l.two.image_error.rel_rmse))
+        .md("at or below radiance", |l| l.verdict.to_owned())
         .left()
-        .md(
-            "time ratio to radiance, 1 / 2 workers",
-            |((_, run), one, [r1, r2], _)| {
-                format!(
-                    "{:.4} / {:.4}",
-                    one.seconds / r1.seconds,
-                    run.seconds / r2.seconds
-                )
-            },
-        )
+        .md("time ratio to radiance, 1 / 2 workers", |l| {
+            let (one, two) = (
+                l.one.seconds / l.rad[0].seconds,
+                l.two.seconds / l.rad[1].seconds,
+            );
+            format!("{one:.4} / {two:.4}")
+        })
         .left();
     format!(
         "\n## Image noise against light samples (wfic at the equal-error cache setting)\n\n{}",
@@ -374,7 +328,6 @@ fn sweep_markdown(results: &[SceneComparison]) -> String {
         .into_iter()
         .filter(|(_, run)| matches!(run.role, Role::Sweep | Role::Reference))
         .collect();
-    let t = runs_table();
     let cross = Table::new()
         .md("scene", |r: &SceneComparison| r.scene.clone())
         .left()
@@ -382,27 +335,27 @@ fn sweep_markdown(results: &[SceneComparison]) -> String {
             both(&r.cross_check)
         })
         .md("mean luminance ratio", |r| format!("{:.4}", r.mean_ratio))
-        .md("rtrace load + 1 ray (s)", |r| {
-            format!("{:.3}", r.radiance_load_seconds)
-        })
-        .md("oconv (s)", |r| format!("{:.3}", r.oconv_seconds));
+        .md("rtrace load + 1 ray (s)", |r| secs(r.radiance_load_seconds))
+        .md("oconv (s)", |r| secs(r.oconv_seconds));
     format!(
         "\n## The sweep (wfic, 2 threads) and the references\n\n{}\n\
          ## Cross-check and load times\n\n{}",
-        t.markdown(&rows),
+        runs_table().markdown(&rows),
         cross.markdown(results)
     )
 }
 
 /// `radiance.md`'s body.
 pub fn markdown(config: &RadianceConfig, results: &[SceneComparison], version: &str) -> String {
-    let mut s = intro(config, version);
-    s.push_str(&matched_markdown(results));
-    s.push_str(&equal_error_markdown(results));
-    s.push_str(&light_markdown(results));
-    s.push_str(&sweep_markdown(results));
-    s.push_str("\nSide-by-side images: `SCENE-side-by-side.png`.\n");
-    s
+    [
+        intro(config, version),
+        matched_markdown(results),
+        equal_error_markdown(results),
+        light_markdown(results),
+        sweep_markdown(results),
+        "\nSide-by-side images: `SCENE-side-by-side.png`.\n".to_owned(),
+    ]
+    .concat()
 }
 
 /// Every run of every scene, with its scene.
@@ -423,7 +376,7 @@ fn runs_table<'a>() -> Table<'a, Row<'a>> {
         .csv("source", |(r, _)| r.source.to_owned())
         .col("renderer", "renderer", |(_, x)| x.renderer.to_owned())
         .left()
-        .col("role", "role", |(_, x)| x.role.to_string())
+        .col("role", "role", |(_, x)| x.role.name().to_owned())
         .left()
         .csv("workers", |(_, x)| x.workers.to_string())
         .col("a", "accuracy", |(_, x)| x.accuracy.to_string())
@@ -433,7 +386,7 @@ fn runs_table<'a>() -> Table<'a, Row<'a>> {
             x.min_radius_pixels.to_string()
         })
         .col("k", "smoothing", |(_, x)| x.smoothing.to_string())
-        .col("seconds", "seconds", |(_, x)| format!("{:.3}", x.seconds))
+        .col("seconds", "seconds", |(_, x)| secs(x.seconds))
         .csv_as(|(_, x)| format!("{:.4}", x.seconds))
         .col("records", "records", |(_, x)| x.records.to_string())
         .col("cache error", "cache_rel_rmse", |(_, x)| {

@@ -32,15 +32,11 @@ impl RadianceBin {
     /// `rayinit.cal` (pyradiance's layout).
     pub fn find() -> Result<Self, String> {
         let mut candidates: Vec<PathBuf> = Vec::new();
-        if let Some(dir) = std::env::var_os("WFIC_RADIANCE_BIN") {
-            candidates.push(PathBuf::from(dir));
-        }
+        candidates.extend(std::env::var_os("WFIC_RADIANCE_BIN").map(PathBuf::from));
         if let Some(path) = std::env::var_os("PATH") {
             candidates.extend(std::env::split_paths(&path));
         }
-        if let Some(dir) = pyradiance_dir() {
-            candidates.push(dir.join("bin"));
-        }
+        candidates.extend(pyradiance_dir().map(|dir| dir.join("bin")));
         let dir = candidates
             .into_iter()
             .find(|d| d.join("rtrace").is_file() && d.join("oconv").is_file())
@@ -91,6 +87,11 @@ fn pyradiance_dir() -> Option<PathBuf> {
     (!dir.is_empty()).then(|| PathBuf::from(dir))
 }
 
+/// The error of an I/O operation on `path`.
+fn io_error(path: &Path) -> impl Fn(std::io::Error) -> String + '_ {
+    move |e| format!("{}: {e}", path.display())
+}
+
 /// Runs `cmd`, feeding `stdin` from a file and writing stdout to a file; its wall seconds.
 fn run_to_file(
     mut cmd: Command,
@@ -98,10 +99,9 @@ fn run_to_file(
     stdout: &Path,
     what: &str,
 ) -> Result<f64, String> {
-    let out = std::fs::File::create(stdout).map_err(|e| format!("{}: {e}", stdout.display()))?;
-    cmd.stdout(out);
+    cmd.stdout(std::fs::File::create(stdout).map_err(io_error(stdout))?);
     if let Some(i) = stdin {
-        cmd.stdin(std::fs::File::open(i).map_err(|e| format!("{}: {e}", i.display()))?);
+        cmd.stdin(std::fs::File::open(i).map_err(io_error(i))?);
     }
     Ok(time_command(&mut cmd, what)?.1)
 }
@@ -110,74 +110,72 @@ fn run_to_file(
 /// `light` per material, one `polygon` per triangle, corners in wfic's winding order (Radiance's
 /// front side, from which a `light` emits, is the one the right-hand rule points to, as in wfic).
 pub fn write_rad(scene: &Scene, path: &Path) -> Result<usize, String> {
-    let io = |e: std::io::Error| format!("{}: {e}", path.display());
-    let mut w = BufWriter::new(std::fs::File::create(path).map_err(io)?);
-    writeln!(
-        w,
-        "# {} exported by wfic {}: {} triangles",
-        scene.name(),
-        env!("CARGO_PKG_VERSION"),
-        scene.triangle_count()
-    )
-    .map_err(io)?;
-    for (i, m) in scene.materials().iter().enumerate() {
-        if m.is_emissive() {
-            let e = m.emission;
-            writeln!(w, "void light m{i}\n0\n0\n3 {} {} {}\n", e.x, e.y, e.z).map_err(io)?;
-        } else {
-            let a = m.albedo;
-            writeln!(
-                w,
-                "void plastic m{i}\n0\n0\n5 {} {} {} 0 0\n",
-                a.x, a.y, a.z
-            )
-            .map_err(io)?;
-        }
-    }
-    let tris = scene.triangles();
-    for (k, ([a, b, c], m)) in tris.iter().enumerate() {
+    let write = || -> std::io::Result<usize> {
+        let mut w = BufWriter::new(std::fs::File::create(path)?);
+        let (name, version) = (scene.name(), env!("CARGO_PKG_VERSION"));
+        let triangles = scene.triangle_count();
         writeln!(
             w,
-            "m{m} polygon t{k}\n0\n0\n9 {} {} {} {} {} {} {} {} {}",
-            a.x, a.y, a.z, b.x, b.y, b.z, c.x, c.y, c.z
-        )
-        .map_err(io)?;
-    }
-    w.flush().map_err(io)?;
-    Ok(tris.len())
+            "# {name} exported by wfic {version}: {triangles} triangles"
+        )?;
+        for (i, m) in scene.materials().iter().enumerate() {
+            if m.is_emissive() {
+                let e = m.emission;
+                writeln!(w, "void light m{i}\n0\n0\n3 {} {} {}\n", e.x, e.y, e.z)?;
+            } else {
+                let a = m.albedo;
+                writeln!(
+                    w,
+                    "void plastic m{i}\n0\n0\n5 {} {} {} 0 0\n",
+                    a.x, a.y, a.z
+                )?;
+            }
+        }
+        let tris = scene.triangles();
+        for (k, ([a, b, c], m)) in tris.iter().enumerate() {
+            writeln!(
+                w,
+                "m{m} polygon t{k}\n0\n0\n9 {} {} {} {} {} {} {} {} {}",
+                a.x, a.y, a.z, b.x, b.y, b.z, c.x, c.y, c.z
+            )?;
+        }
+        w.flush()?;
+        Ok(tris.len())
+    };
+    write().map_err(io_error(path))
 }
 
-/// wfic's primary rays for `settings`' image (one through each pixel's centre, rows from the
-/// top), as `rtrace -if` reads them: origin and direction, six native-endian `f32`s a pixel.
+/// The pixels of a `w` x `h` image's grid of one pixel in `stride` x `stride`, rows from the top.
+fn grid((w, h): (u32, u32), stride: u32) -> impl Iterator<Item = (u32, u32)> {
+    let along = move |n: u32| (stride / 2..n).step_by(stride as usize);
+    along(h).flat_map(move |y| along(w).map(move |x| (x, y)))
+}
+
+/// wfic's primary rays for `settings`' image on its grid of `stride` (one through each pixel's
+/// centre), as `rtrace -if` reads them: origin and direction, six native-endian `f32`s a pixel.
 fn write_rays(
     scene: &Scene,
     settings: &RenderSettings,
     stride: u32,
     path: &Path,
 ) -> Result<(), String> {
-    let view = scene.camera().view(settings.width, settings.height);
-    let mut bytes = Vec::with_capacity((settings.width * settings.height * 24) as usize);
-    for y in (stride / 2..settings.height).step_by(stride as usize) {
-        for x in (stride / 2..settings.width).step_by(stride as usize) {
-            let d = view.direction(x as f32 + 0.5, y as f32 + 0.5);
-            let o = view.eye();
-            for c in [o.x, o.y, o.z, d.x, d.y, d.z] {
-                bytes.extend_from_slice(&c.to_ne_bytes());
-            }
+    let (w, h) = (settings.width, settings.height);
+    let view = scene.camera().view(w, h);
+    let mut bytes = Vec::with_capacity((w * h * 24) as usize);
+    for (x, y) in grid((w, h), stride) {
+        let (o, d) = (view.eye(), view.direction(x as f32 + 0.5, y as f32 + 0.5));
+        for c in [o.x, o.y, o.z, d.x, d.y, d.z] {
+            bytes.extend_from_slice(&c.to_ne_bytes());
         }
     }
-    std::fs::write(path, bytes).map_err(|e| format!("{}: {e}", path.display()))
+    std::fs::write(path, bytes).map_err(io_error(path))
 }
 
 /// Reads `rtrace -ff` output (three `f32`s a ray, the rays of [`write_rays`] with `stride`)
 /// into a `w` x `h` image (black where no ray was traced).
 fn read_floats(path: &Path, (w, h): (u32, u32), stride: u32) -> Result<Image, String> {
-    let bytes = std::fs::read(path).map_err(|e| format!("{}: {e}", path.display()))?;
-    let (sw, sh) = (
-        (stride / 2..w).step_by(stride as usize).count() as u32,
-        (stride / 2..h).step_by(stride as usize).count() as u32,
-    );
-    let want = (sw * sh * 12) as usize;
+    let bytes = std::fs::read(path).map_err(io_error(path))?;
+    let want = 12 * grid((w, h), stride).count();
     if bytes.len() != want {
         return Err(format!(
             "{}: {} bytes, expected {want} ({w} x {h} RGB floats)",
@@ -186,14 +184,9 @@ fn read_floats(path: &Path, (w, h): (u32, u32), stride: u32) -> Result<Image, St
         ));
     }
     let mut img = Image::new(w, h);
-    for (i, px) in bytes.chunks_exact(12).enumerate() {
+    for ((x, y), px) in grid((w, h), stride).zip(bytes.chunks_exact(12)) {
         let f = |k: usize| f32::from_ne_bytes(px[k..k + 4].try_into().expect("4 bytes"));
-        let (x, y) = (i as u32 % sw, i as u32 / sw);
-        img.set(
-            stride / 2 + x * stride,
-            stride / 2 + y * stride,
-            Vec3::new(f(0), f(4), f(8)),
-        );
+        img.set(x, y, Vec3::new(f(0), f(4), f(8)));
     }
     Ok(img)
 }
@@ -204,19 +197,8 @@ fn ambient_records(bin: &RadianceBin, amb: &Path) -> Result<usize, String> {
     if !amb.exists() {
         return Ok(0);
     }
-    let out = bin
-        .command("lookamb")
-        .arg("-h")
-        .arg(amb)
-        .output()
-        .map_err(|e| format!("lookamb: {e}"))?;
-    if !out.status.success() {
-        return Err(format!(
-            "lookamb {}: {}",
-            amb.display(),
-            String::from_utf8_lossy(&out.stderr).trim()
-        ));
-    }
+    let what = format!("lookamb {}", amb.display());
+    let (out, _) = time_command(bin.command("lookamb").arg("-h").arg(amb), &what)?;
     Ok(String::from_utf8_lossy(&out.stdout)
         .lines()
         .filter(|l| l.trim_start().starts_with("Position"))
@@ -247,10 +229,9 @@ impl<'a> Rtrace<'a> {
         stride: u32,
         work: &Path,
     ) -> Result<Self, String> {
-        std::fs::create_dir_all(work).map_err(|e| format!("{}: {e}", work.display()))?;
-        let rad = work.join("scene.rad");
+        std::fs::create_dir_all(work).map_err(io_error(work))?;
+        let (rad, oct) = (work.join("scene.rad"), work.join("scene.oct"));
         write_rad(scene, &rad)?;
-        let oct = work.join("scene.oct");
         let mut oconv = bin.command("oconv");
         oconv.arg("-f").arg(&rad);
         let oconv_seconds = run_to_file(oconv, None, &oct, "oconv")?;
@@ -271,11 +252,11 @@ impl<'a> Rtrace<'a> {
 
     /// `rtrace` as both comparisons run it: one bounce, no ambient value or weight,
     /// deterministic direct light, binary floats in and out, `workers` processes sharing the
-    /// ambient file `amb` when given; `args` add the cache's settings.
-    fn rtrace(&self, args: &[String], workers: usize, amb: Option<&Path>) -> Command {
+    /// ambient file `amb` when given; `args` (space-separated) add the cache's settings.
+    fn rtrace(&self, args: &str, workers: usize, amb: Option<&Path>) -> Command {
         let mut c = self.bin.command("rtrace");
         c.args(["-h-", "-fff", "-ab", "1", "-av", "0", "0", "0", "-aw", "0"]);
-        c.args(["-dj", "0", "-lw", "1e-7"]).args(args);
+        c.args(["-dj", "0", "-lw", "1e-7"]).args(args.split(' '));
         c.args(["-n", &workers.to_string()]);
         if let Some(amb) = amb {
             c.arg("-af").arg(amb);
@@ -287,9 +268,9 @@ impl<'a> Rtrace<'a> {
     /// Seconds `rtrace` takes to load the octree and trace one ray.
     pub fn load_seconds(&self) -> Result<f64, String> {
         let one = self.work.join("one.f32");
-        let rays = std::fs::read(&self.rays).map_err(|e| e.to_string())?;
-        std::fs::write(&one, &rays[..24]).map_err(|e| e.to_string())?;
-        let cmd = self.rtrace(&["-ab".into(), "0".into()], 1, None);
+        let rays = std::fs::read(&self.rays).map_err(io_error(&self.rays))?;
+        std::fs::write(&one, &rays[..24]).map_err(io_error(&one))?;
+        let cmd = self.rtrace("-ab 0", 1, None);
         run_to_file(cmd, Some(&one), &self.work.join("one.out"), "rtrace (load)")
     }
 
@@ -297,8 +278,7 @@ impl<'a> Rtrace<'a> {
     /// and its seconds.
     pub fn reference(&self, rays: u32) -> Result<(Image, f64), String> {
         let out = self.work.join("ref.f32");
-        let args = ["-aa", "0", "-ad", &rays.to_string(), "-as", "0"].map(str::to_owned);
-        let cmd = self.rtrace(&args, 2, None);
+        let cmd = self.rtrace(&format!("-aa 0 -ad {rays} -as 0"), 2, None);
         let seconds = run_to_file(cmd, Some(&self.grid_rays), &out, "rtrace (reference)")?;
         Ok((read_floats(&out, self.size, self.stride)?, seconds))
     }
@@ -316,7 +296,6 @@ impl<'a> Rtrace<'a> {
         std::fs::remove_file(&amb).ok();
         let out = self.work.join(format!("{name}.f32"));
         let args = format!("-ad {rays} -as 0 -aa {accuracy} -ar {resolution}");
-        let args: Vec<String> = args.split(' ').map(str::to_owned).collect();
         let cmd = self.rtrace(&args, workers, Some(&amb));
         let seconds = run_to_file(cmd, Some(&self.rays), &out, "rtrace")?;
         let img = read_floats(&out, self.size, 1)?;

@@ -1,5 +1,6 @@
 //! The comparison's schedule, one scene's: both renderers' references, the matched settings,
-//! the sweep of wfic's settings and each worker count's pick.
+//! the sweep of wfic's settings and each worker count's pick. Each step adds its rows to the
+//! scene's runs.
 
 use super::{report, say, RadianceConfig, Role, Rtrace, Run};
 use crate::harness::measure::repeat;
@@ -13,237 +14,185 @@ fn seed_of(i: u32) -> u64 {
     0x5eed + 0x1_0000 * u64::from(i)
 }
 
-/// The images a comparison measures against: the renderer's own brute-force images (wfic: one
-/// per seed, repeat `i` against `own[i]`; Radiance: one, every repeat against `own[0]`), the
-/// converged one, the pixels measured.
-pub(super) struct References<'a> {
-    own: &'a [Image],
-    converged: &'a Image,
-    mask: &'a [bool],
+/// The images a scene's rows are measured against: each renderer's own brute-force images
+/// (wfic: one per seed, repeat `i` against `wfic_own[i]`; Radiance: one, every repeat against
+/// it), wfic's converged one, the pixels measured.
+pub(super) struct SceneReferences {
+    pub(super) mask: Vec<bool>,
+    pub(super) radiance: Image,
+    pub(super) wfic_own: Vec<Image>,
+    pub(super) converged: Image,
 }
 
-impl References<'_> {
-    /// `run` with its errors: `img` against the own reference of `repeat` and the converged one.
-    fn measured(&self, mut run: Run, img: &Image, repeat: usize) -> Run {
-        run.cache_error = image_error(img, &self.own[repeat], self.mask);
-        run.image_error = image_error(img, self.converged, self.mask);
-        run.cache_error_range = (run.cache_error.rel_rmse, run.cache_error.rel_rmse);
-        run
+impl SceneReferences {
+    /// Radiance's brute-force image, wfic's one per seed and the converged one; their own rows
+    /// into `runs`.
+    pub(super) fn render(
+        config: &RadianceConfig,
+        scene: &Scene,
+        rtrace: &Rtrace,
+        runs: &mut Vec<Run>,
+    ) -> Result<Self, String> {
+        let (name, n4, k) = (scene.name(), 4 * config.rays, config.reference_stride);
+        say!(
+            name,
+            "radiance reference: -aa 0 -ad {n4}, 2 processes, 1 pixel in {}",
+            k * k
+        );
+        let (radiance, radiance_seconds) = rtrace.reference(n4)?;
+        // wfic's references on the same grid: brute force with the matched light samples (cache
+        // error), and the converged one (image error) with more light samples and another seed.
+        let repeats = config.repeats.max(1);
+        say!(
+            name,
+            "wfic reference: none, {n4} rays, 2 threads, {repeats} seed(s)"
+        );
+        let s = config.settings(config.accuracy, n4, config.light_samples, seed_of(0));
+        let rc = s.cache_config(scene).map_err(|e| e.to_string())?;
+        let camera = scene.camera();
+        let own: Vec<(Image, f64)> = (0..repeats)
+            .map(|i| render_reference_grid(scene, &camera, &s.clone().seed(seed_of(i)), rc, 2, k))
+            .collect();
+        let light = config.converged_light_samples;
+        say!(
+            name,
+            "converged reference: none, {n4} rays, {light} light samples"
+        );
+        let converged_settings = config.settings(config.accuracy, n4, light, 0xc0ffee);
+        let wfic_seconds = own[0].1;
+        let refs = Self {
+            converged: render_reference_grid(scene, &camera, &converged_settings, rc, 2, k).0,
+            mask: surface_mask(scene, &s, k),
+            radiance,
+            wfic_own: own.into_iter().map(|(img, _)| img).collect(),
+        };
+        let radiance = Run::new("radiance", Role::Reference, 2, (0.0, n4), None);
+        let wfic = Run::new("wfic", Role::Reference, 2, (0.0, n4), Some(&s));
+        runs.extend([
+            refs.measured(radiance, &refs.radiance, 0, radiance_seconds),
+            refs.measured(wfic, &refs.wfic_own[0], 0, wfic_seconds),
+        ]);
+        Ok(refs)
     }
 
-    /// wfic frames (`wf`, a fresh cache) of `scene` at settings `s` on `workers` threads, one
-    /// per own reference (each with that reference's seed), measured as one row
-    /// ([`Run::combine`]); and the first frame's image.
-    pub(super) fn wfic_frames(
+    /// `run` rendered as `img` in `seconds`: `img` against its renderer's own reference of
+    /// `repeat` and the converged one.
+    fn measured(&self, run: Run, img: &Image, repeat: usize, seconds: f64) -> Run {
+        let own = match run.renderer {
+            "radiance" => &self.radiance,
+            _ => &self.wfic_own[repeat],
+        };
+        let cache_error = image_error(img, own, &self.mask);
+        Run {
+            seconds,
+            cache_error,
+            image_error: image_error(img, &self.converged, &self.mask),
+            cache_error_range: (cache_error.rel_rmse, cache_error.rel_rmse),
+            ..run
+        }
+    }
+
+    /// `repeats` renders of the setting of `row` (`render(i)`: the image, seconds and records
+    /// of repeat `i`), each measured, as one row ([`Run::combine`]); and the first image.
+    fn frames(
         &self,
-        scene: &Scene,
-        role: Role,
-        s: &RenderSettings,
-        workers: usize,
+        row: &Run,
+        repeats: usize,
+        mut render: impl FnMut(usize) -> Result<(Image, f64, usize), String>,
     ) -> Result<(Run, Image), String> {
         let mut first = None;
-        let runs = repeat(self.own.len(), |i| {
-            let mut s = s.clone();
-            s.seed = seed_of(i as u32);
-            let config = s.cache_config(scene).map_err(|e| e.to_string())?;
-            let camera = scene.camera();
-            let f = render_with_scheme(Scheme::Wf, scene, &camera, &s, config, workers).0;
-            let setting = (s.accuracy, s.rays_per_record);
-            let stats = (f.stats.seconds, f.stats.cache_records);
-            let run = Run::new("wfic", role, workers, Some(&s), setting, stats);
-            let run = self.measured(run, &f.image, i);
-            first.get_or_insert(f.image);
+        let runs = repeat(repeats, |i| {
+            let (img, seconds, records) = render(i)?;
+            let run = self.measured(
+                Run {
+                    records,
+                    ..row.clone()
+                },
+                &img,
+                i,
+                seconds,
+            );
+            first.get_or_insert(img);
             Ok::<_, String>(run)
         })?;
         Ok((Run::combine(runs), first.expect("at least one repeat")))
     }
 
-    /// [`Self::wfic_frames`] without the image.
+    /// wfic frames (`wf`, a fresh cache) of `scene` at settings `s` on `workers` threads, one
+    /// per own reference (each with that reference's seed), as one row; and the first image.
     pub(super) fn wfic(
         &self,
         scene: &Scene,
         role: Role,
         s: &RenderSettings,
         workers: usize,
-    ) -> Result<Run, String> {
-        Ok(self.wfic_frames(scene, role, s, workers)?.0)
-    }
-}
-
-/// Both renderers' references of one scene, and what they are measured on.
-pub(super) struct SceneReferences {
-    pub(super) mask: Vec<bool>,
-    pub(super) radiance: Image,
-    pub(super) radiance_seconds: f64,
-    pub(super) wfic_own: Vec<Image>,
-    pub(super) wfic_seconds: f64,
-    pub(super) wfic_settings: RenderSettings,
-    pub(super) converged: Image,
-}
-
-impl SceneReferences {
-    /// Radiance's brute-force image, wfic's one per seed and the converged one.
-    pub(super) fn render(
-        config: &RadianceConfig,
-        scene: &Scene,
-        rtrace: &Rtrace,
-    ) -> Result<Self, String> {
-        let (name, n, a, k) = (
-            scene.name(),
-            config.rays,
-            config.accuracy,
-            config.reference_stride,
-        );
-        say!(
-            name,
-            "radiance reference: -aa 0 -ad {}, 2 processes, 1 pixel in {}",
-            4 * n,
-            k * k
-        );
-        let (radiance, radiance_seconds) = rtrace.reference(4 * n)?;
-        // wfic's references on the same grid: brute force with the matched light samples (cache
-        // error), and the converged one (image error) with more light samples and another seed.
-        let repeats = config.repeats.max(1);
-        say!(
-            name,
-            "wfic reference: none, {} rays, 2 threads, {repeats} seed(s)",
-            4 * n
-        );
-        let wfic_settings = config.settings(a, 4 * n, config.light_samples, seed_of(0));
-        let rc = wfic_settings
-            .cache_config(scene)
-            .map_err(|e| e.to_string())?;
-        let camera = scene.camera();
-        let mut own = Vec::new();
-        for i in 0..repeats {
-            let mut rs = wfic_settings.clone();
-            rs.seed = seed_of(i);
-            own.push(render_reference_grid(scene, &camera, &rs, rc, 2, k));
-        }
-        let light = config.converged_light_samples;
-        say!(
-            name,
-            "converged reference: none, {} rays, {light} light samples",
-            4 * n
-        );
-        let conv_settings = config.settings(a, 4 * n, light, 0xc0ffee);
-        let (converged, _) = render_reference_grid(scene, &camera, &conv_settings, rc, 2, k);
-        Ok(Self {
-            mask: surface_mask(scene, &wfic_settings, k),
-            radiance,
-            radiance_seconds,
-            wfic_seconds: own[0].1,
-            wfic_own: own.into_iter().map(|(img, _)| img).collect(),
-            wfic_settings,
-            converged,
+    ) -> Result<(Run, Image), String> {
+        let setting = (s.accuracy, s.rays_per_record);
+        let row = Run::new("wfic", role, workers, setting, Some(s));
+        self.frames(&row, self.wfic_own.len(), |i| {
+            let s = s.clone().seed(seed_of(i as u32));
+            let config = s.cache_config(scene).map_err(|e| e.to_string())?;
+            let f = render_with_scheme(Scheme::Wf, scene, &scene.camera(), &s, config, workers).0;
+            Ok((f.image, f.stats.seconds, f.stats.cache_records))
         })
     }
-
-    pub(super) fn radiance(&self) -> References<'_> {
-        References {
-            own: std::slice::from_ref(&self.radiance),
-            converged: &self.converged,
-            mask: &self.mask,
-        }
-    }
-
-    pub(super) fn wfic(&self) -> References<'_> {
-        References {
-            own: &self.wfic_own,
-            converged: &self.converged,
-            mask: &self.mask,
-        }
-    }
-
-    /// The two references' own rows.
-    pub(super) fn rows(&self, rays: u32) -> [Run; 2] {
-        let s = &self.wfic_settings;
-        let radiance = Run::new(
-            "radiance",
-            Role::Reference,
-            2,
-            None,
-            (0.0, 4 * rays),
-            (self.radiance_seconds, 0),
-        );
-        let wfic = Run::new(
-            "wfic",
-            Role::Reference,
-            2,
-            Some(s),
-            (0.0, s.rays_per_record),
-            (self.wfic_seconds, 0),
-        );
-        [
-            self.radiance().measured(radiance, &self.radiance, 0),
-            self.wfic().measured(wfic, &self.wfic_own[0], 0),
-        ]
-    }
 }
 
-/// The matched settings, Radiance's and wfic's, at 1 and 2 workers, `repeats` renders each;
-/// and each renderer's first image at 1 worker.
+/// The matched settings, Radiance's and wfic's, at 1 and 2 workers, `repeats` renders each, into
+/// `runs`; and each renderer's first image at 1 worker, Radiance's first.
 pub(super) fn matched(
     config: &RadianceConfig,
     scene: &Scene,
     rtrace: &Rtrace,
     refs: &SceneReferences,
-) -> Result<(Vec<Run>, Image, Image), String> {
-    let (name, n, a) = (scene.name(), config.rays, config.accuracy);
+    runs: &mut Vec<Run>,
+) -> Result<Vec<Image>, String> {
+    let (name, n, a, ar) = (
+        scene.name(),
+        config.rays,
+        config.accuracy,
+        config.resolution,
+    );
     let repeats = config.repeats.max(1);
-    let mut runs = Vec::new();
-    let mut radiance_images = Vec::new();
+    let mut images = Vec::new();
+    let mut keep = |(run, img): (Run, Image)| {
+        if run.workers == 1 {
+            images.push(img);
+        }
+        runs.push(run);
+    };
     for workers in [1, 2] {
-        let rows = repeat(repeats as usize, |i| {
+        let row = Run::new("radiance", Role::Matched, workers, (a, n), None);
+        keep(refs.frames(&row, repeats as usize, |i| {
             say!(
                 name,
-                "radiance: -aa {a} -ad {n} -ar {}, {workers} process(es), run {} of {repeats}",
-                config.resolution,
+                "radiance: -aa {a} -ad {n} -ar {ar}, {workers} process(es), run {} of {repeats}",
                 i + 1
             );
-            let setting = (a, n, config.resolution);
-            let (img, seconds, records, _) =
-                rtrace.cached(setting, workers, &format!("amb-{workers}-{i}"))?;
-            let run = Run::new(
-                "radiance",
-                Role::Matched,
-                workers,
-                None,
-                (a, n),
-                (seconds, records),
-            );
-            let run = refs.radiance().measured(run, &img, 0);
-            if i == 0 {
-                radiance_images.push(img);
-            }
-            Ok::<_, String>(run)
-        })?;
-        runs.push(Run::combine(rows));
+            let amb = format!("amb-{workers}-{i}");
+            let (img, seconds, records, _) = rtrace.cached((a, n, ar), workers, &amb)?;
+            Ok((img, seconds, records))
+        })?);
     }
     let base = config.settings(a, n, config.light_samples, 0x5eed);
-    let mut wfic_images = Vec::new();
     for workers in [1, 2] {
         say!(
             name,
             "wfic: wf, a {a}, {n} rays, {workers} thread(s), {repeats} seed(s)"
         );
-        let (run, img) = refs
-            .wfic()
-            .wfic_frames(scene, Role::Matched, &base, workers)?;
-        runs.push(run);
-        wfic_images.push(img);
+        keep(refs.wfic(scene, Role::Matched, &base, workers)?);
     }
-    let (rad, wf) = (radiance_images.swap_remove(0), wfic_images.swap_remove(0));
-    Ok((runs, rad, wf))
+    Ok(images)
 }
 
-/// The sweep of wfic's settings at 2 threads, each row with its settings, against its
-/// reference (whose rays stay `4N`).
+/// The sweep of wfic's settings at 2 threads against its reference (whose rays stay `4N`), into
+/// `runs`; and each row with its settings, cheapest first.
 pub(super) fn sweep(
     config: &RadianceConfig,
     scene: &Scene,
-    refs: &References,
+    refs: &SceneReferences,
     target: f64,
+    runs: &mut Vec<Run>,
 ) -> Result<Vec<(Run, RenderSettings)>, String> {
     let mut swept = Vec::new();
     for &scale in &config.sweep_accuracy_scales {
@@ -257,7 +206,7 @@ pub(super) fn sweep(
                         .settings(sa, sn, config.light_samples, 0x5eed)
                         .smoothing(k);
                     s.min_radius_pixels = rmin;
-                    let run = refs.wfic(scene, Role::Sweep, &s, 2)?;
+                    let (run, _) = refs.wfic(scene, Role::Sweep, &s, 2)?;
                     say!(
                         scene.name(),
                         "sweep {}: {:.3} s, {} records, cache error {:.2}% (radiance {:.2}%)",
@@ -267,11 +216,13 @@ pub(super) fn sweep(
                         100.0 * run.cache_error.rel_rmse,
                         100.0 * target
                     );
+                    runs.push(run.clone());
                     swept.push((run, s));
                 }
             }
         }
     }
+    swept.sort_by(|x, y| x.0.seconds.total_cmp(&y.0.seconds));
     Ok(swept)
 }
 
@@ -280,12 +231,53 @@ pub(super) fn sweep(
 /// order).
 const PICK_TRIES: usize = 4;
 
-/// A worker count's pick: whether it reached Radiance's error, its setting, its frames at 1
-/// and 2 workers (as measured so far), the worker counts it is the pick of.
-pub(super) type Pick = (bool, RenderSettings, [Option<Run>; 2], Vec<usize>);
+/// A worker count's pick: the cheapest swept setting (`swept` is cheapest first) at or below
+/// Radiance's error `target` whose frame at that count, rendered again, errs at or below it too
+/// (up to [`PICK_TRIES`]; the frames that erred above go to `runs` as [`Role::PickTried`]);
+/// the most accurate swept one when none holds. Whether it reached `target`, its setting, and
+/// its frame at that count when it did.
+fn pick<'s>(
+    scene: &Scene,
+    refs: &SceneReferences,
+    swept: &'s [(Run, RenderSettings)],
+    (workers, target): (usize, f64),
+    runs: &mut Vec<Run>,
+) -> Result<(bool, &'s RenderSettings, Option<Run>), String> {
+    for (_, st) in swept
+        .iter()
+        .filter(|(r, _)| r.cache_error.rel_rmse <= target)
+        .take(PICK_TRIES)
+    {
+        let (run, _) = refs.wfic(scene, Role::PickTried, st, workers)?;
+        say!(
+            scene.name(),
+            "{workers}-worker pick {}: cache error {:.2}% (radiance {:.2}%)",
+            report::wfic_setting(&run),
+            100.0 * run.cache_error.rel_rmse,
+            100.0 * target
+        );
+        if run.cache_error.rel_rmse <= target {
+            return Ok((true, st, Some(run)));
+        }
+        runs.push(run);
+    }
+    let error = |x: &&(Run, RenderSettings)| x.0.cache_error.rel_rmse;
+    let most = swept.iter().min_by(|x, y| error(x).total_cmp(&error(y)));
+    Ok((false, &most.expect("the sweep is not empty").1, None))
+}
 
-/// Whether two settings are the same cache setting.
-fn same(x: &RenderSettings, y: &RenderSettings) -> bool {
+/// Each worker count's pick (`targets[w]`: Radiance's error at `w + 1` workers), one setting for
+/// both counts when they pick the same, rendered at 1 and 2 workers into `runs`. Returns the
+/// 1-worker pick's setting.
+pub(super) fn picks(
+    scene: &Scene,
+    refs: &SceneReferences,
+    swept: &[(Run, RenderSettings)],
+    targets: [f64; 2],
+    runs: &mut Vec<Run>,
+) -> Result<RenderSettings, String> {
+    let one = pick(scene, refs, swept, (1, targets[0]), runs)?;
+    let two = pick(scene, refs, swept, (2, targets[1]), runs)?;
     let key = |s: &RenderSettings| {
         (
             s.accuracy,
@@ -294,77 +286,24 @@ fn same(x: &RenderSettings, y: &RenderSettings) -> bool {
             s.smoothing,
         )
     };
-    key(x) == key(y)
-}
-
-/// Each worker count's pick: the cheapest swept setting at or below Radiance's error at that
-/// count (`targets[w]`) whose frame at that count, rendered again, errs at or below it too (up
-/// to [`PICK_TRIES`]); the most accurate swept one when none holds. Frames that erred above go
-/// to `runs` as [`Role::PickTried`]. One setting serves both counts when it is the same.
-pub(super) fn picks(
-    scene: &Scene,
-    refs: &References,
-    swept: &[(Run, RenderSettings)],
-    targets: [f64; 2],
-    runs: &mut Vec<Run>,
-) -> Result<Vec<Pick>, String> {
-    let mut picks: Vec<Pick> = Vec::new();
-    for (w, &t) in targets.iter().enumerate() {
-        let workers = w + 1;
-        let mut found = None;
-        for (_, st) in swept
-            .iter()
-            .filter(|(r, _)| r.cache_error.rel_rmse <= t)
-            .take(PICK_TRIES)
-        {
-            if let Some((_, earlier, frames, _)) =
-                picks.iter().find(|(ok, p, _, _)| *ok && same(p, st))
-            {
-                // The other count's pick: its frame at this count is measured already.
-                if let Some(run) = frames[w].as_ref().filter(|r| r.cache_error.rel_rmse <= t) {
-                    found = Some((earlier.clone(), run.clone()));
-                    break;
-                }
-            }
-            let run = refs.wfic(scene, Role::PickTried, st, workers)?;
-            say!(
-                scene.name(),
-                "{workers}-worker pick {}: cache error {:.2}% (radiance {:.2}%)",
-                report::wfic_setting(&run),
-                100.0 * run.cache_error.rel_rmse,
-                100.0 * t
-            );
-            if run.cache_error.rel_rmse <= t {
-                found = Some((st.clone(), run));
-                break;
-            }
-            runs.push(run);
-        }
-        let (reached, st, run) = match found {
-            Some((st, run)) => (true, st, Some(run)),
-            None => {
-                let most = swept
-                    .iter()
-                    .min_by(|x, y| {
-                        x.0.cache_error
-                            .rel_rmse
-                            .total_cmp(&y.0.cache_error.rel_rmse)
-                    })
-                    .expect("the sweep is not empty");
-                (false, most.1.clone(), None)
-            }
-        };
-        if let Some(pick) = picks
-            .iter_mut()
-            .find(|(ok, p, _, _)| *ok == reached && same(p, &st))
-        {
-            pick.2[w] = pick.2[w].take().or(run);
-            pick.3.push(workers);
-        } else {
-            let mut frames = [None, None];
-            frames[w] = run;
-            picks.push((reached, st, frames, vec![workers]));
+    let setting = one.1.clone();
+    // (role, setting, its frames at 1 and 2 workers measured so far)
+    let picks = if one.0 == two.0 && key(one.1) == key(two.1) {
+        vec![(Role::pick(one.0, None), one.1, [one.2, two.2])]
+    } else {
+        vec![
+            (Role::pick(one.0, Some(1)), one.1, [one.2, None]),
+            (Role::pick(two.0, Some(2)), two.1, [None, two.2]),
+        ]
+    };
+    for (role, st, frames) in picks {
+        for (w, frame) in frames.into_iter().enumerate() {
+            let run = match frame {
+                Some(run) => run,
+                None => refs.wfic(scene, role, st, w + 1)?.0,
+            };
+            runs.push(Run { role, ..run });
         }
     }
-    Ok(picks)
+    Ok(setting)
 }
