@@ -9,6 +9,12 @@
 //! the allocator (a root list's segments beyond the first are the only allocations of their sizes,
 //! so any such allocation beyond the segments the list ends up with is a loser's).
 //!
+//! Each round then removes every record before the cache is dropped: the two workers each remove
+//! half the world's records during a second frame while looking up (WF reclaims when it closes:
+//! lists compacted, emptied subtrees freed), and `IrradianceCache::remove` takes the rest. The
+//! round checks that every record went, that only the root node is left and that the memory came
+//! back while the cache lived; the drop's baseline check then covers what reclamation freed.
+//!
 //! `#[global_allocator]` is per binary, hence this dedicated test binary; and it has no libtest
 //! harness (`harness = false` in `Cargo.toml`): the checks run one after the other on the main
 //! thread, so no other test and no harness thread allocates while a round is measured. Of
@@ -221,6 +227,13 @@ mod real {
         /// Records stored, by the inserts' outcomes, and by the cache's statistics.
         stored: u64,
         records: u64,
+        /// Records removed: by the workers during a second frame, then between frames.
+        removed: u64,
+        /// Records and nodes left once everything was removed (and the removing frame reclaimed).
+        records_left: u64,
+        nodes_left: u64,
+        /// Bytes the removals gave back before the cache was dropped.
+        freed_bytes: i64,
     }
 
     /// One round on a fresh cache: two workers, lined up by a barrier and then a spinning start
@@ -277,13 +290,59 @@ mod real {
                 })
             };
             frame.close();
+            let records = cache.stats().records as u64;
+            let held = live();
+            let removed = remove_everything(&mut cache, self.sequential);
+            let emptied = cache.stats();
             Round {
                 lost_child_races: a.lost_child_races + b.lost_child_races,
                 discarded: a.discarded + b.discarded,
                 stored: a.stored + b.stored,
-                records: cache.stats().records as u64,
+                records,
+                removed,
+                records_left: emptied.records as u64,
+                nodes_left: emptied.nodes as u64,
+                freed_bytes: held.bytes as i64 - live().bytes as i64,
             }
         }
+    }
+
+    /// Removes every record of `cache`: a second frame in which each worker removes the records
+    /// touching its half of the world while looking up (WF reclaims when the frame closes:
+    /// compacting the lists, pruning the emptied subtrees), then, between frames, whatever is
+    /// left (`IrradianceCache::remove`). Returns the records removed.
+    fn remove_everything<C: IrradianceCache>(cache: &mut C, sequential: bool) -> u64 {
+        let frame = cache.frame();
+        let worker = |t: u32| {
+            let (lo, hi) = if t == 0 {
+                (Vec3::ZERO, Vec3::new(8.0, 16.0, 16.0))
+            } else {
+                (Vec3::new(8.0, 0.0, 0.0), Vec3::splat(16.0))
+            };
+            let half = wfic::ic::Selection::touching(lo, hi).expect("a box");
+            let mut handle = frame.handle_for(w(t));
+            handle.remove(&half);
+            for i in 0..PER_THREAD {
+                let r = deep(i, 1 - t);
+                std::hint::black_box(handle.lookup(r.position, r.normal));
+            }
+        };
+        if sequential {
+            worker(0);
+            worker(1);
+        } else {
+            // Joined explicitly: a scope's implicit join does not wait for the threads' own
+            // last frees, which the counter would then see as live.
+            thread::scope(|s| {
+                let a = s.spawn(|| worker(0));
+                let b = s.spawn(|| worker(1));
+                a.join().unwrap();
+                b.join().unwrap();
+            });
+        }
+        // The frame's count: the workers' removals, and LW's from its global records at the merge.
+        let in_frame = frame.close().workers.removed;
+        in_frame + cache.remove(&wfic::ic::Selection::older_than(0)) as u64
     }
 
     /// The counter counts: a box leaked on purpose inside a window shows as one block of its size,
@@ -367,6 +426,21 @@ mod real {
             _ => r.stored,
         };
         assert_eq!(r.records, expected, "{what}: records in the cache");
+        assert_eq!(r.removed, expected, "{what}: records removed");
+        if scheme != Scheme::None {
+            // Reclamation gave the memory back while the cache lived: the lists emptied and
+            // every node but the root freed.
+            assert_eq!(
+                (r.records_left, r.nodes_left),
+                (0, 1),
+                "{what}: records and nodes left after removing everything"
+            );
+            assert!(
+                r.freed_bytes > 0,
+                "{what}: removing every record freed {} bytes",
+                r.freed_bytes
+            );
+        }
         assert_eq!(
             r.stored + r.discarded,
             match scheme {
