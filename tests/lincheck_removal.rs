@@ -353,18 +353,54 @@ fn a_removal_takes_the_record_of_a_pending_insert() {
 #[test]
 fn wf_removal_is_not_linearizable_hand_built_schedule() {
     let (a, b) = (id(1, 0), id(2, 0));
-    let h = HistoryBuilder::new()
+    let essential = HistoryBuilder::new()
         .call(1, CacheOp::insert(a, rec_a()), stored(a))
         .invoke(0, at_p())
         .call(2, CacheOp::insert(b, rec_b()), stored(b))
         .call(2, lookup(), found(vec![b]))
         .ret(0, CacheRet::Removed(2))
         .build();
+    // The same schedule with three operations far from P around it, which meet nothing of it:
+    // an insert of C, and two lookups that miss (no history of them alone is a violation).
+    let (c, far, elsewhere) = (id(3, 0), Vec3::splat(8.0), Vec3::new(8.0, 2.0, 2.0));
+    let miss = || {
+        let op = CacheOp::Lookup {
+            point: elsewhere,
+            normal: Vec3::Z,
+        };
+        (op, found(vec![]))
+    };
+    let (m1, r1) = miss();
+    let (m2, r2) = miss();
+    let h = HistoryBuilder::new()
+        .call(
+            3,
+            CacheOp::insert(c, Record::new(far, Vec3::Z, Vec3::ONE, 0.3)),
+            stored(c),
+        )
+        .call(3, m1, r1)
+        .call(1, CacheOp::insert(a, rec_a()), stored(a))
+        .invoke(0, at_p())
+        .call(2, CacheOp::insert(b, rec_b()), stored(b))
+        .call(2, lookup(), found(vec![b]))
+        .ret(0, CacheRet::Removed(2))
+        .call(3, m2, r2)
+        .build();
     assert_eq!(check_set_consistency(&h, &world()), Ok(()));
     let failure = check(&h, &spec()).unwrap_err();
     println!("{}", h.render(Some(&failure)));
+    // The shrinker drops the three bystanders and keeps the four operations the violation needs.
     let (small, _) = shrink_nonlinearizable(&h, &spec());
-    assert_eq!(small, h, "already minimal: every operation is needed");
+    assert_eq!(
+        (small.len(), h.len()),
+        (essential.len(), 7),
+        "shrunk:\n{}",
+        small.render(None)
+    );
+    assert!(check(&small, &spec()).is_err());
+    assert!(small.operations().iter().all(|o| o.thread < 3));
+    // And the four are minimal: the unpadded history shrinks to itself.
+    assert_eq!(shrink_nonlinearizable(&essential, &spec()).0, essential);
 }
 
 /// A broken LCK whose removal does nothing and reports nothing: the records it should have taken
