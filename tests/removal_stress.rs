@@ -1,7 +1,8 @@
 //! Real threads removing while others insert and look up, in every scheme: 10^5 removals among
 //! 10^6 lookups per scheme, every record a lookup meets checked whole, genuine and not removed
-//! before the lookup began (never resurrected), and after the frame exactly the records stored
-//! and not removed are left. Four workers: oversubscribed on the 2-core CI machine, which only adds
+//! before the lookup began (never resurrected; about half the lookups are at a record already
+//! removed, and the count of those chances is asserted), and after the frame exactly the records
+//! stored and not removed are left. Four workers: oversubscribed on the 2-core CI machine, which only adds
 //! preemptions (these are correctness tests).
 #![cfg(not(checker))]
 
@@ -62,13 +63,22 @@ fn genuine(r: &Record) -> bool {
 }
 
 /// What the workers share besides the cache: per worker, how many of its inserts have returned;
-/// per record, the removal epoch at which its removal returned (0: not removed); and the epoch
-/// counter itself.
+/// per record, the removal epoch at which its removal returned (0: not removed, [`PENDING`]:
+/// removed, its epoch being taken); and the epoch counter itself.
+///
+/// A removal, once it returns, stores `PENDING`, then takes its epoch `e` (the counter's
+/// increment), then stores `e`. A lookup that read the counter at `before >= e` happens-after
+/// the increment, so after the `PENDING` store: it cannot read the record's state as 0, and if it
+/// reads `PENDING` it waits for `e` and judges by it. So every record whose removal's epoch is at
+/// most `before` is judged, none by a state not yet written.
 struct Shared {
     inserted: Vec<AtomicU64>,
     gone: Vec<AtomicU64>,
     epoch: AtomicU64,
 }
+
+/// A record's state between its removal's return and its epoch.
+const PENDING: u64 = u64::MAX;
 
 impl Shared {
     fn slot(worker: u32, seq: u64) -> usize {
@@ -81,6 +91,9 @@ struct Outcome {
     removed: Vec<u64>,
     lookups: u64,
     met: u64,
+    /// Lookups at a record whose removal had returned before they began: each a chance to see
+    /// it resurrected.
+    chances: u64,
 }
 
 struct RemovalStress;
@@ -116,7 +129,16 @@ impl SchemeCheck for RemovalStress {
         let met: u64 = outcomes.iter().map(|o| o.met).sum();
         // LW's workers see only their own records during the frame: about a quarter of the rest.
         assert!(met >= 100_000, "{scheme}: lookups met only {met} records");
-        eprintln!("{scheme}: {removed} removals, {lookups} lookups meeting {met} records, checked");
+        // Lookups at a record already removed: every removed record is a few lookups' target.
+        let chances: u64 = outcomes.iter().map(|o| o.chances).sum();
+        assert!(
+            chances >= 50_000,
+            "{scheme}: only {chances} lookups were at a record removed before they began"
+        );
+        eprintln!(
+            "{scheme}: {removed} removals, {lookups} lookups meeting {met} records, checked; \
+             {chances} of them at a record already removed"
+        );
 
         // Exactly the stored records that were not removed are left.
         let mut want = HashSet::new();
@@ -150,6 +172,7 @@ fn work<H: CacheHandle>(h: &mut H, me: u32, shared: &Shared, scheme: &str) -> Ou
         removed: Vec::new(),
         lookups: 0,
         met: 0,
+        chances: 0,
     };
     let mut alive: Vec<u64> = Vec::new();
     let mut found = Vec::new();
@@ -178,11 +201,16 @@ fn work<H: CacheHandle>(h: &mut H, me: u32, shared: &Shared, scheme: &str) -> Ou
             // LW removes its own local records at once, as the others remove theirs.
             assert_eq!(n, 1, "{scheme}: the removal of r{me}.{victim} took {n}");
             out.removed.push(victim);
-            // AcqRel: the epoch's increment happens-after the removal (program order), and a
-            // lookup that loads this value or a later one (Acquire; the increments form one
-            // release sequence) happens-after it.
+            let gone = &shared.gone[Shared::slot(me, victim)];
+            // Release: ordered before the increment below (program order, and the increment is
+            // a release), so a lookup that reads its epoch or later reads this or what follows.
+            gone.store(PENDING, Ordering::Release);
+            // AcqRel: the increment happens-after the removal and the store above, and a lookup
+            // that loads this value or a later one (Acquire; the increments form one release
+            // sequence) happens-after both.
             let e = shared.epoch.fetch_add(1, Ordering::AcqRel) + 1;
-            shared.gone[Shared::slot(me, victim)].store(e, Ordering::Release);
+            // Release: a lookup that reads `PENDING` waits for this value.
+            gone.store(e, Ordering::Release);
         }
 
         for _ in 0..lookups_per_insert {
@@ -197,10 +225,17 @@ fn work<H: CacheHandle>(h: &mut H, me: u32, shared: &Shared, scheme: &str) -> Ou
                 // Acquire: as above (this worker's own store: it has inserted `seq + 1`).
                 done = shared.inserted[me as usize].load(Ordering::Acquire);
             }
-            let target = record(other, rng.below(done));
-            // Acquire: see above; every removal that returned at epoch <= before happens-before
-            // this lookup, which must not meet its record.
+            let target_seq = rng.below(done);
+            let target = record(other, target_seq);
+            // Acquire: see `Shared`; every removal of a ticket up to `before` happens-before this
+            // lookup, which must not meet its record.
             let before = shared.epoch.load(Ordering::Acquire);
+            // Acquire: as below (a record still `PENDING` is not counted: a chance only where
+            // the verdict is sure).
+            let target_gone = shared.gone[Shared::slot(other, target_seq)].load(Ordering::Acquire);
+            if target_gone != 0 && target_gone != PENDING && target_gone <= before {
+                out.chances += 1;
+            }
             let q = target.position + Vec3::splat(0.01);
             found.clear();
             // The interpolation itself is the agreement tests' business; here, its traversal.
@@ -210,8 +245,14 @@ fn work<H: CacheHandle>(h: &mut H, me: u32, shared: &Shared, scheme: &str) -> Ou
             for f in &found {
                 assert!(genuine(f), "{scheme}: a torn or forged record {:?}", f.id());
                 let (fw, fs) = (f.id().worker().index(), f.id().seq());
-                // Acquire: pairs with the remover's Release store of the epoch.
-                let gone = shared.gone[Shared::slot(fw, fs)].load(Ordering::Acquire);
+                // Acquire: pairs with the remover's Release stores (see `Shared`).
+                let state = &shared.gone[Shared::slot(fw, fs)];
+                let mut gone = state.load(Ordering::Acquire);
+                while gone == PENDING {
+                    std::thread::yield_now();
+                    // Acquire: as above.
+                    gone = state.load(Ordering::Acquire);
+                }
                 assert!(
                     gone == 0 || gone > before,
                     "{scheme}: r{fw}.{fs}, removed at epoch {gone}, found by a lookup that began at {before}"
