@@ -12,8 +12,8 @@
 //! Each round then removes every record before the cache is dropped: the two workers each remove
 //! half the world's records during a second frame while looking up (WF reclaims when it closes:
 //! lists compacted, emptied subtrees freed), and `IrradianceCache::remove` takes the rest. The
-//! round checks that every record went, that only the root node is left and that the memory came
-//! back while the cache lived; the drop's baseline check then covers what reclamation freed.
+//! round checks that every record went and that only the root node is left while the cache lives;
+//! the drop's baseline check then covers what reclamation freed.
 //!
 //! `#[global_allocator]` is per binary, hence this dedicated test binary; and it has no libtest
 //! harness (`harness = false` in `Cargo.toml`): the checks run one after the other on the main
@@ -232,8 +232,6 @@ mod real {
         /// Records and nodes left once everything was removed (and the removing frame reclaimed).
         records_left: u64,
         nodes_left: u64,
-        /// Bytes the removals gave back before the cache was dropped.
-        freed_bytes: i64,
     }
 
     /// One round on a fresh cache: two workers, lined up by a barrier and then a spinning start
@@ -291,7 +289,6 @@ mod real {
             };
             frame.close();
             let records = cache.stats().records as u64;
-            let held = live();
             let removed = remove_everything(&mut cache, self.sequential);
             let emptied = cache.stats();
             Round {
@@ -302,7 +299,6 @@ mod real {
                 removed,
                 records_left: emptied.records as u64,
                 nodes_left: emptied.nodes as u64,
-                freed_bytes: held.bytes as i64 - live().bytes as i64,
             }
         }
     }
@@ -428,17 +424,12 @@ mod real {
         assert_eq!(r.records, expected, "{what}: records in the cache");
         assert_eq!(r.removed, expected, "{what}: records removed");
         if scheme != Scheme::None {
-            // Reclamation gave the memory back while the cache lived: the lists emptied and
-            // every node but the root freed.
+            // Reclamation ran while the cache lived: the lists emptied and every node but the
+            // root unlinked (freed, or the baseline check after the drop fails).
             assert_eq!(
                 (r.records_left, r.nodes_left),
                 (0, 1),
                 "{what}: records and nodes left after removing everything"
-            );
-            assert!(
-                r.freed_bytes > 0,
-                "{what}: removing every record freed {} bytes",
-                r.freed_bytes
             );
         }
         assert_eq!(

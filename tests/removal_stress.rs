@@ -227,8 +227,8 @@ fn work<H: CacheHandle>(h: &mut H, me: u32, shared: &Shared, scheme: &str) -> Ou
             }
             let target_seq = rng.below(done);
             let target = record(other, target_seq);
-            // Acquire: see `Shared`; every removal of a ticket up to `before` happens-before this
-            // lookup, which must not meet its record.
+            // Acquire: see `Shared`; every removal whose epoch is at most `before` happens-before
+            // this lookup, which must not meet its record.
             let before = shared.epoch.load(Ordering::Acquire);
             // Acquire: as below (a record still `PENDING` is not counted: a chance only where
             // the verdict is sure).
