@@ -110,3 +110,82 @@ fn lookup_and_valid_records_count_the_same_walk() {
         }
     }
 }
+
+#[path = "../verify/tree_shape.rs"]
+mod tree_shape;
+
+/// Every scheme counts a removal's work as the loom models bound it: a removal through a handle
+/// and one through the cache visit exactly the nodes the selection may reach and examine the
+/// records those nodes hold (`TreeShape::removal_reach`), nothing beside them running. The
+/// selection meets one corner of the box, so a removal that did not prune would visit more.
+struct RemovalWork;
+
+impl CacheJob for RemovalWork {
+    /// (handle removals' (nodes, records), cache removals' (nodes, records)), summed.
+    type Output = ((u64, u64), (u64, u64));
+
+    fn run<C: IrradianceCache>(self, mut cache: C) -> Self::Output {
+        use tree_shape::{TreeShape, Work};
+        let scheme = cache.scheme().name();
+        let near = wfic::ic::Selection::touching(Vec3::splat(0.9), Vec3::splat(1.1)).unwrap();
+        let all = records();
+        let shape = TreeShape::of(&config(), &all);
+        let allowed = shape.removal_reach(&near);
+        let totals = |c: &mut C| {
+            let t = c.stats().totals;
+            (t.removal_nodes, t.removal_records, t.removed)
+        };
+        {
+            let frame = cache.frame();
+            let mut h = frame.handle();
+            for r in &all {
+                h.insert(*r).unwrap();
+            }
+        }
+        let mut by_handle = (0, 0);
+        if scheme != Scheme::Lw.name() && scheme != Scheme::None.name() {
+            // LW's handles remove from their own frame's records; the global octree's removal is
+            // the merge's, counted below with the cache's own. The reference keeps nothing.
+            let frame = cache.frame();
+            let mut h = frame.handle();
+            let (removed, did) = tree_shape::counted_removal(&mut h, &near);
+            assert!(removed > 0, "{scheme}: the selection took nothing");
+            assert_eq!(did, allowed, "{scheme}: a handle's removal");
+            by_handle = (did.nodes, did.records);
+        }
+        // The same selection again through the cache: the records are gone, but their slots
+        // and nodes too (the removal above closed its frame, which reclaims them), so the shape
+        // is the survivors'.
+        let left: Vec<Record> = cache.snapshot();
+        let expected = if scheme == Scheme::None.name() {
+            Work::default()
+        } else {
+            TreeShape::of(&config(), &left).removal_reach(&near)
+        };
+        let before = totals(&mut cache);
+        let removed = cache.remove(&near);
+        let after = totals(&mut cache);
+        assert_eq!(after.2 - before.2, removed as u64, "{scheme}");
+        let did = Work {
+            nodes: after.0 - before.0,
+            records: after.1 - before.1,
+        };
+        assert_eq!(did, expected, "{scheme}: the cache's removal");
+        assert!(
+            scheme == Scheme::None.name() || did.nodes < shape.nodes() as u64,
+            "{scheme}: the selection reaches every node, so the test cannot tell pruning apart"
+        );
+        (by_handle, (did.nodes, did.records))
+    }
+}
+
+#[test]
+fn removal_work_is_what_the_selection_may_reach() {
+    for scheme in Scheme::ALL {
+        let (by_handle, by_cache) = scheme.build(config(), RemovalWork);
+        eprintln!("{scheme}: handle removal {by_handle:?}, cache removal {by_cache:?}");
+        if scheme != Scheme::None {
+            assert!(by_cache.0 >= 1, "{scheme}: the root is always visited");
+        }
+    }
+}

@@ -102,6 +102,20 @@ fn an_unhelped_insert_below_an_unmarked_child_is_missed() {
     );
 }
 
+/// Without helping, a removal that happens-after an insert (on another thread) misses the record
+/// stored below a child its publisher has not yet marked: the model's own assertion.
+#[test]
+fn an_unhelped_insert_below_an_unmarked_child_escapes_a_removal() {
+    let message = expect_failure(|| {
+        an_insert_that_happens_before_a_removal_is_taken::<Unhelped>();
+    });
+    eprintln!("unhelped (removal): {}", message.trim());
+    assert!(
+        message.contains("a record whose insert happened-before the removal was missed"),
+        "expected the model's assertion, got: {message}"
+    );
+}
+
 const SLOT_PUBLISH: usize = Site::SlotPublish as usize;
 const SLOT_READ: usize = Site::SlotRead as usize;
 const SEGMENT_READ: usize = Site::SegmentRead as usize;

@@ -255,3 +255,24 @@ fn the_removal_models_pass_with_seqcst_everywhere() {
         removal_races_a_graft_below_it::<SeqCstEverywhere>();
     });
 }
+
+/// A removal visits only what its selection may reach, while a graft races in another subtree,
+/// and exactly that when nothing runs beside it.
+#[test]
+fn a_removal_visits_only_what_its_selection_may_reach_minimal() {
+    let (took, missed) =
+        model_outcomes(a_removal_visits_only_what_its_selection_may_reach::<Minimal>);
+    assert!(took > 0 && missed == 0, "the removal missed its record");
+}
+
+/// Guarantee 7 with the insert on another thread: taken, including when only the inserter's own
+/// marking of the node makes the record reachable.
+#[test]
+fn an_insert_that_happens_before_a_removal_is_taken_minimal() {
+    let (helped, not) = model_outcomes(an_insert_that_happens_before_a_removal_is_taken::<Minimal>);
+    assert!(
+        helped > 0,
+        "the insert never walked into the node the other thread published"
+    );
+    assert!(not > 0, "the insert always walked into the published node");
+}

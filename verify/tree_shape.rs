@@ -32,7 +32,7 @@ use glam::Vec3;
 use std::collections::HashMap;
 use wfic::cache::Cell;
 use wfic::cache::{CacheConfig, CacheHandle};
-use wfic::ic::{self, Record};
+use wfic::ic::{self, Record, Selection};
 
 /// Nodes visited and records examined by one lookup (or allowed for one).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -113,6 +113,64 @@ impl TreeShape {
         }
         work
     }
+}
+
+impl TreeShape {
+    /// What a removal of `selection` visits: the root, and every node whose loose cell, and every
+    /// ancestor's below the root, the selection may reach (`Selection::may_select_within`); and
+    /// the slots those nodes hold. Removed records keep their slots and their nodes until the
+    /// frame closes, so for a removal made before that, `of` is given every record inserted.
+    pub fn removal_reach(&self, selection: &Selection) -> Work {
+        let geometry = self.config.geometry();
+        let mut work = Work::default();
+        for (path, (_, records)) in &self.nodes {
+            let reached = (1..=path.len()).all(|len| {
+                let (lo, hi) = geometry.loose_bounds(&self.nodes[&path[..len]].0);
+                selection.may_select_within(lo, hi)
+            });
+            if reached {
+                work.nodes += 1;
+                work.records += records;
+            }
+        }
+        work
+    }
+}
+
+/// Checks one removal that did `did` against the shape's `allowed`: within it while inserts
+/// could still grow the tree (`quiescent` false), equal to it when nothing ran beside it. A
+/// removal that rescans a list another thread grew examines more slots than the list ends with;
+/// one that does not prune visits nodes its selection cannot reach.
+pub fn check_removal(what: &str, did: Work, allowed: Work, quiescent: bool) {
+    if quiescent {
+        assert_eq!(
+            did, allowed,
+            "{what}: a quiescent removal did {did:?}, the inserted records' tree gives {allowed:?}"
+        );
+    } else {
+        assert!(
+            did.nodes <= allowed.nodes && did.records <= allowed.records,
+            "{what}: a removal did {did:?}, more than the final tree allows ({allowed:?})"
+        );
+    }
+}
+
+/// `remove` of `selection` through `h`; returns what it took and the work the handle counted for
+/// it (the difference of its summed counters across the call).
+pub fn counted_removal(h: &mut impl CacheHandle, selection: &Selection) -> (usize, Work) {
+    let before = *h.stats();
+    let removed = h.remove(selection);
+    let after = *h.stats();
+    assert_eq!(
+        after.removed - before.removed,
+        removed as u64,
+        "the handle miscounted"
+    );
+    let did = Work {
+        nodes: after.removal_nodes - before.removal_nodes,
+        records: after.removal_records - before.removal_records,
+    };
+    (removed, did)
 }
 
 /// Checks one lookup at `p` that did `did` against the shape `allowed`: within it while the tree

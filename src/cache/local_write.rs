@@ -115,11 +115,12 @@ impl IrradianceCache for LocalWrite {
         let mut removed = 0;
         for deposit in &deposits {
             for (selection, frame) in &deposit.local.removals {
-                removed += self.global.remove(selection, *frame) as u64;
+                let (taken, work) = self.global.remove(selection, *frame);
+                report.workers.count_removal(taken, work);
+                self.stats.totals.count_removal(taken, work);
+                removed += taken;
             }
         }
-        report.workers.removed += removed;
-        self.stats.totals.removed += removed;
         if removed > 0 {
             self.global.prune();
         }
@@ -135,12 +136,11 @@ impl IrradianceCache for LocalWrite {
     }
 
     fn remove(&mut self, selection: &Selection) -> usize {
-        let removed = self.global.remove(selection, self.stats.frames);
+        let (removed, work) = self.global.remove(selection, self.stats.frames);
         if removed > 0 {
             self.global.prune();
         }
-        self.stats.totals.removed += removed as u64;
-        removed
+        self.stats.totals.count_removal(removed, work)
     }
 
     fn snapshot(&mut self) -> Vec<Record> {
@@ -190,10 +190,9 @@ impl CacheHandle for LwHandle<'_> {
     fn remove(&mut self, selection: &Selection) -> usize {
         let frame = self.core.frame;
         let local = &mut self.core.local;
-        let removed = local.tree.remove(selection, frame);
+        let (removed, work) = local.tree.remove(selection, frame);
         local.removals.push((*selection, frame));
-        self.core.stats.removed += removed as u64;
-        removed
+        self.core.stats.count_removal(removed, work)
     }
 
     fn valid_records(&mut self, point: Vec3, normal: Vec3, out: &mut Vec<Record>) {

@@ -193,12 +193,11 @@ impl<F: LockFlavour> IrradianceCache for Locked<F> {
     fn remove(&mut self, selection: &Selection) -> usize {
         let now = self.stats.frames;
         let tree = self.tree.get_mut();
-        let removed = tree.remove(selection, now);
+        let (removed, work) = tree.remove(selection, now);
         if removed > 0 {
             tree.prune();
         }
-        self.stats.totals.removed += removed as u64;
-        removed
+        self.stats.totals.count_removal(removed, work)
     }
 
     fn snapshot(&mut self) -> Vec<Record> {
@@ -254,7 +253,7 @@ impl<F: LockFlavour> CacheHandle for LckHandle<'_, F> {
 
     fn remove(&mut self, selection: &Selection) -> usize {
         let tree = &self.cache.tree;
-        let removed = {
+        let (removed, work) = {
             let mut guard = acquire(
                 &mut self.core.stats.lock_wait,
                 || tree.try_write(),
@@ -262,8 +261,7 @@ impl<F: LockFlavour> CacheHandle for LckHandle<'_, F> {
             );
             guard.remove(selection, self.core.frame)
         };
-        self.core.stats.removed += removed as u64;
-        removed
+        self.core.stats.count_removal(removed, work)
     }
 
     fn valid_records(&mut self, point: Vec3, normal: Vec3, out: &mut Vec<Record>) {

@@ -204,6 +204,13 @@ pub struct WorkerStats {
     pub lookup_nodes: u64,
     /// Records examined by every lookup and `valid_records` call, summed.
     pub lookup_records: u64,
+    /// Nodes visited by every removal ([`CacheHandle::remove`], [`IrradianceCache::remove`] and
+    /// LW's merge), summed, counted as lookups' are: one removal's count is the difference across
+    /// it. A removal visits the root and each node whose loose cell its selection may reach.
+    pub removal_nodes: u64,
+    /// Records examined by every removal, summed: every slot whose state it read in the nodes it
+    /// visited, selected or not (for WF, a slot reserved but not yet written counts too).
+    pub removal_records: u64,
 }
 
 impl AddAssign<&WorkerStats> for WorkerStats {
@@ -223,6 +230,18 @@ impl AddAssign<&WorkerStats> for WorkerStats {
         self.max_lookup_records = self.max_lookup_records.max(o.max_lookup_records);
         self.lookup_nodes += o.lookup_nodes;
         self.lookup_records += o.lookup_records;
+        self.removal_nodes += o.removal_nodes;
+        self.removal_records += o.removal_records;
+    }
+}
+
+impl WorkerStats {
+    /// Counts one removal: the records it took and its work.
+    pub(crate) fn count_removal(&mut self, removed: usize, work: frame::Work) -> usize {
+        self.removed += removed as u64;
+        self.removal_nodes += u64::from(work.nodes);
+        self.removal_records += u64::from(work.records);
+        removed
     }
 }
 
@@ -420,6 +439,8 @@ mod tests {
             max_lookup_records: 12,
             lookup_nodes: 13,
             lookup_records: 14,
+            removal_nodes: 16,
+            removal_records: 17,
         };
         let b = WorkerStats {
             lookups: 100,
@@ -437,6 +458,8 @@ mod tests {
             max_lookup_records: 1,
             lookup_nodes: 1300,
             lookup_records: 1400,
+            removal_nodes: 1600,
+            removal_records: 1700,
         };
         let mut sum = a;
         sum += &b;
@@ -458,6 +481,8 @@ mod tests {
                 max_lookup_records: 12,
                 lookup_nodes: 1313,
                 lookup_records: 1414,
+                removal_nodes: 1616,
+                removal_records: 1717,
             }
         );
     }

@@ -160,12 +160,14 @@ impl Octree {
     }
 
     /// Removes every record `selection` takes out in frame `now` (frames closed so far); returns
-    /// how many. Visits only the nodes whose loose cell the selection may reach (the root always:
-    /// it keeps the records too large for any cell); keeps the order of the others.
-    pub fn remove(&mut self, selection: &Selection, now: u64) -> usize {
+    /// how many, and the nodes visited and records examined. Visits only the nodes whose loose
+    /// cell the selection may reach (the root always: it keeps the records too large for any
+    /// cell); keeps the order of the others.
+    pub(crate) fn remove(&mut self, selection: &Selection, now: u64) -> (usize, Work) {
         let accuracy = self.config.accuracy();
         let geometry = *self.config.geometry();
         let mut removed = 0;
+        let mut work = Work::default();
         let mut pending = vec![(0usize, self.config.root())];
         while let Some((index, cell)) = pending.pop() {
             if index != 0 {
@@ -176,6 +178,10 @@ impl Octree {
             }
             let node = &mut self.nodes[index];
             let before = node.records.len();
+            work += Work {
+                nodes: 1,
+                records: before as u32,
+            };
             let mut kept = 0;
             for i in 0..before {
                 if !selection.selects(&node.records[i], accuracy, now) {
@@ -192,7 +198,7 @@ impl Octree {
             }
         }
         self.len -= removed;
-        removed
+        (removed, work)
     }
 
     /// Frees the nodes that removals left with no record below them, and renumbers the rest in
@@ -325,12 +331,11 @@ impl IrradianceCache for Sequential {
     fn remove(&mut self, selection: &Selection) -> usize {
         let now = self.stats.frames;
         let tree = self.tree_mut();
-        let removed = tree.remove(selection, now);
+        let (removed, work) = tree.remove(selection, now);
         if removed > 0 {
             tree.prune();
         }
-        self.stats.totals.removed += removed as u64;
-        removed
+        self.stats.totals.count_removal(removed, work)
     }
 
     fn snapshot(&mut self) -> Vec<Record> {
@@ -372,9 +377,8 @@ impl CacheHandle for SeqHandle<'_> {
     }
 
     fn remove(&mut self, selection: &Selection) -> usize {
-        let removed = self.tree.remove(selection, self.core.frame);
-        self.core.stats.removed += removed as u64;
-        removed
+        let (removed, work) = self.tree.remove(selection, self.core.frame);
+        self.core.stats.count_removal(removed, work)
     }
 
     fn valid_records(&mut self, point: Vec3, normal: Vec3, out: &mut Vec<Record>) {

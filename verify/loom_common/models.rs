@@ -3,7 +3,7 @@
 //! (`verify/loom_orderings.rs`). Each body runs once per loom execution and returns what it
 //! observed, so the caller can check, across executions, that the interesting schedule was reached.
 
-use super::tree_shape::{check_lookup, Work};
+use super::tree_shape::{check_lookup, check_removal, counted_removal, TreeShape, Work};
 use super::*;
 use std::collections::HashSet;
 use wfic::cache::wf::{Orderings, RecordList};
@@ -452,11 +452,25 @@ pub fn remove_one<C: IrradianceCache>(
     worker: u32,
     selection: &wfic::ic::Selection,
 ) -> usize {
+    remove_counted(cache, worker, selection).0
+}
+
+/// [`remove_one`], also returning the nodes the removal visited and the slots it examined.
+pub fn remove_counted<C: IrradianceCache>(
+    cache: &C,
+    worker: u32,
+    selection: &wfic::ic::Selection,
+) -> (usize, Work) {
     let mut h = cache.handle(WorkerId::new(worker));
-    let removed = h.remove(selection);
-    assert_eq!(h.stats().removed, removed as u64, "the handle miscounted");
+    let out = counted_removal(&mut h, selection);
     drop(h);
-    removed
+    out
+}
+
+/// The work a removal of `selection` may do in a tree of the records `inserted` (every record
+/// inserted so far, removed or not: their slots and nodes stay until the frame closes).
+fn removal_bound(inserted: &[Record], selection: &wfic::ic::Selection) -> Work {
+    TreeShape::of(&config(), inserted).removal_reach(selection)
 }
 
 /// A removal races a lookup of the record it removes. The lookup finds the record whole or not
@@ -500,8 +514,16 @@ pub fn removal_races_an_insert_into_one_list<O: Orderings>() -> bool {
     insert_one(&*cache, 0, old);
     let c = cache.clone();
     let t = Go::race(move || insert_one(&*c, 1, new));
-    let removed = remove_one(&*cache, 2, &at_point(Vec3::splat(2.0)));
+    let selection = at_point(Vec3::splat(2.0));
+    let (removed, did) = remove_counted(&*cache, 2, &selection);
     t.join().unwrap();
+    // One pass over the list: at most the two slots it ends with, however the insert grew it.
+    check_removal(
+        "one list",
+        did,
+        removal_bound(&[old, new], &selection),
+        false,
+    );
     assert!(removed == 1 || removed == 2, "removed {removed}");
     let left = valid_at(&*cache, 3, Vec3::splat(2.0));
     assert!(left.iter().all(|f| f.is_intact()), "torn record");
@@ -529,8 +551,15 @@ pub fn removal_races_a_graft_below_it<O: Orderings>() -> bool {
     let c = cache.clone();
     let t = Go::race(move || insert_one(&*c, 1, below));
     // The root record's influence covers the world; the child's reaches (1, 1, 1).
-    let removed = remove_one(&*cache, 2, &at_point(below.position));
+    let selection = at_point(below.position);
+    let (removed, did) = remove_counted(&*cache, 2, &selection);
     t.join().unwrap();
+    check_removal(
+        "graft",
+        did,
+        removal_bound(&[top, below], &selection),
+        false,
+    );
     assert!(removed == 1 || removed == 2, "removed {removed}");
     let left = valid_at(&*cache, 3, below.position);
     assert!(left.iter().all(|f| f.is_intact()), "torn record");
@@ -616,4 +645,69 @@ pub fn a_removal_that_happens_before_a_lookup_is_seen<O: Orderings>() -> bool {
     }
     t.join().unwrap();
     flagged
+}
+
+/// A removal in one depth-1 subtree races an insert that grafts into another. The removal visits
+/// only the root and the nodes its selection may reach, never the far subtree, whether or not the
+/// graft is published yet; once both are done, a second removal of the same selection, with
+/// nothing running beside it, does exactly the work the tree's shape gives, and a removal of
+/// everything visits every node and slot. Returns whether the first removal took its record (it
+/// always must: the insert happened before the threads started).
+pub fn a_removal_visits_only_what_its_selection_may_reach<O: Orderings>() -> bool {
+    let cache = wf::<O>(CasFailure::Adopt);
+    // (-,-,-) and (+,+,+) depth-1 records: the loose cells ([-1, 3] and [1, 5] a side) both hold
+    // (2, 2, 2), but a point at 0.6 (or 3.4) a side lies in only one.
+    let near = Record::new(Vec3::splat(0.6), Vec3::Z, Vec3::new(1.0, 1.0, 2.0), 0.8);
+    let far = Record::new(Vec3::splat(3.4), Vec3::Z, Vec3::new(2.0, 1.0, 1.0), 0.8);
+    insert_one(&*cache, 0, near);
+    let c = cache.clone();
+    let t = Go::race(move || insert_one(&*c, 1, far));
+    let selection = at_point(near.position);
+    let (removed, did) = remove_counted(&*cache, 2, &selection);
+    t.join().unwrap();
+    let inserted = [near, far];
+    let shape = TreeShape::of(&config(), &inserted);
+    let allowed = shape.removal_reach(&selection);
+    assert!(
+        allowed.nodes < shape.nodes() as u64,
+        "the model's selection reaches every node, so it cannot tell pruning apart"
+    );
+    check_removal("disjoint subtrees", did, allowed, false);
+    let (again, quiet) = remove_counted(&*cache, 3, &selection);
+    assert_eq!(again, 0, "a record removed twice");
+    check_removal("disjoint subtrees, quiescent", quiet, allowed, true);
+    let everything = wfic::ic::Selection::touching(Vec3::splat(-1.0), Vec3::splat(5.0)).unwrap();
+    let (rest, all) = remove_counted(&*cache, 4, &everything);
+    assert_eq!(rest, 1, "the far record must be left for the last removal");
+    check_removal(
+        "everything, quiescent",
+        all,
+        shape.removal_reach(&everything),
+        true,
+    );
+    removed == 1
+}
+
+/// Guarantee 7 across threads: an insert that happens-before a removal (through a thread join,
+/// the insert made on another thread) is taken by it, whether or not the node it went into has
+/// been marked in its parent's mask yet by the thread publishing that node. The removal finds
+/// children through the mask, as lookups do, so it relies on the inserter's own marking (helping):
+/// without it (`Unhelped`) the record is missed. Returns whether the insert walked into the node
+/// the other thread published (the case only helping covers).
+pub fn an_insert_that_happens_before_a_removal_is_taken<O: Orderings>() -> bool {
+    let cache = wf::<O>(CasFailure::Adopt);
+    let (c1, c2) = (cache.clone(), cache.clone());
+    let mine = record_at_depth(1, 1.0);
+    let publisher = thread::spawn(move || insert_one(&*c1, 1, deep_a()));
+    let inserter = thread::spawn(move || insert_one(&*c2, 2, record_at_depth(1, 1.0)));
+    let (outcome, steps, lost) = inserter.join().unwrap();
+    assert!(matches!(outcome, Inserted::Stored(_)));
+    let removed = remove_one(&*cache, 0, &at_point(mine.position));
+    publisher.join().unwrap();
+    let left = valid_at(&*cache, 3, mine.position);
+    assert!(
+        removed >= 1 && left.iter().all(|r| r.position != mine.position),
+        "a record whose insert happened-before the removal was missed (removed {removed})"
+    );
+    steps == 1 && lost == 0
 }

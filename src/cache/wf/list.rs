@@ -416,15 +416,16 @@ impl<O: Orderings> RecordList<O> {
 
     /// Removes every live record `select` takes: one compare-and-swap of its slot's state from
     /// live to removed, never retried (module documentation, 4). Returns how many this call
-    /// removed: a record another removal took first is not counted here.
-    pub(crate) fn remove_where(&self, select: impl Fn(&Record) -> bool) -> u32 {
+    /// removed (a record another removal took first is not counted here) and how many slots it
+    /// examined: one pass over the slots reserved when it read the head, never a second.
+    pub(crate) fn remove_where(&self, select: impl Fn(&Record) -> bool) -> (u32, u32) {
         let mut removed = 0;
-        self.visit(|_| true, &mut |state, _, record| {
+        let examined = self.visit(|_| true, &mut |state, _, record| {
             if select(record) && take::<O>(state) {
                 removed += 1;
             }
         });
-        removed
+        (removed, examined)
     }
 
     /// Reclaims the slots of removed records: if any slot is not live, moves the live records,

@@ -418,18 +418,20 @@ impl<O: Orderings> WaitFree<O> {
     }
 
     /// Removes every live record `selection` takes in frame `now` from the nodes a walk reaches
-    /// (module documentation); returns how many this call took.
-    fn remove_from(&self, selection: &Selection, now: u64) -> u64 {
+    /// (module documentation); returns how many this call took, and the nodes it visited and the
+    /// slots it examined.
+    fn remove_from(&self, selection: &Selection, now: u64) -> (usize, Work) {
         let mut removed = 0;
+        let mut work = Work::default();
         self.remove_in(
             &self.root,
             self.config.root(),
             true,
             selection,
             now,
-            &mut removed,
+            (&mut removed, &mut work),
         );
-        removed
+        (removed, work)
     }
 
     fn remove_in(
@@ -439,7 +441,7 @@ impl<O: Orderings> WaitFree<O> {
         root: bool,
         selection: &Selection,
         now: u64,
-        removed: &mut u64,
+        (removed, work): (&mut usize, &mut Work),
     ) {
         if !root {
             // The loose cell holds every stored record's influence sphere, here and below.
@@ -449,16 +451,27 @@ impl<O: Orderings> WaitFree<O> {
             }
         }
         let accuracy = self.config.accuracy();
-        *removed += u64::from(
-            node.records
-                .remove_where(|r| selection.selects(r, accuracy, now)),
-        );
+        let (taken, examined) = node
+            .records
+            .remove_where(|r| selection.selects(r, accuracy, now));
+        *removed += taken as usize;
+        *work += Work {
+            nodes: 1,
+            records: examined,
+        };
         // Acquire (MaskRead): as in `walk_node`: every bit seen comes with its child, and every
         // bit on the path of a record whose insert happens-before this removal is seen.
         let occupied = node.occupied.load(ord::<O>(Site::MaskRead));
         for octant in Octant::in_mask(occupied) {
             let child = node.follow(octant);
-            self.remove_in(child, cell.child(octant), false, selection, now, removed);
+            self.remove_in(
+                child,
+                cell.child(octant),
+                false,
+                selection,
+                now,
+                (&mut *removed, &mut *work),
+            );
         }
     }
 
@@ -588,12 +601,11 @@ impl<O: Orderings> IrradianceCache for WaitFree<O> {
     }
 
     fn remove(&mut self, selection: &Selection) -> usize {
-        let removed = self.remove_from(selection, self.stats.frames);
-        self.stats.totals.removed += removed;
+        let (removed, work) = self.remove_from(selection, self.stats.frames);
         if removed > 0 {
             self.reclaim();
         }
-        removed as usize
+        self.stats.totals.count_removal(removed, work)
     }
 
     fn snapshot(&mut self) -> Vec<Record> {
@@ -649,9 +661,8 @@ impl<O: Orderings> CacheHandle for WfHandle<'_, O> {
     }
 
     fn remove(&mut self, selection: &Selection) -> usize {
-        let removed = self.cache.remove_from(selection, self.core.frame);
-        self.core.stats.removed += removed;
-        removed as usize
+        let (removed, work) = self.cache.remove_from(selection, self.core.frame);
+        self.core.stats.count_removal(removed, work)
     }
 
     fn valid_records(&mut self, point: Vec3, normal: Vec3, out: &mut Vec<Record>) {
