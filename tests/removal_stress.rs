@@ -2,7 +2,10 @@
 //! 10^6 lookups per scheme, every record a lookup meets checked whole, genuine and not removed
 //! before the lookup began (never resurrected; about half the lookups are at a record already
 //! removed, and the count of those chances is asserted), and after the frame exactly the records
-//! stored and not removed are left. Four workers: oversubscribed on the 2-core CI machine, which only adds
+//! stored and not removed are left. Besides removing their own records, workers now and then
+//! remove another worker's next record while it is being inserted (the removal meets the slot
+//! reserved and unwritten, or the record, or nothing); where workers run at once both outcomes
+//! must occur, and an owner whose removal takes nothing must find that a racer took its record. Four workers: oversubscribed on the 2-core CI machine, which only adds
 //! preemptions (these are correctness tests).
 #![cfg(not(checker))]
 
@@ -11,7 +14,7 @@ mod common;
 use common::{with_scheme, Rng, SchemeCheck, AXES, SCHEMES};
 use glam::Vec3;
 use std::collections::HashSet;
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use wfic::cache::{CacheConfig, CacheHandle, Inserted, IrradianceCache};
 use wfic::ic::{Record, Selection};
 
@@ -75,6 +78,8 @@ struct Shared {
     inserted: Vec<AtomicU64>,
     gone: Vec<AtomicU64>,
     epoch: AtomicU64,
+    /// Per record: taken by another worker's removal racing its insert (see `race`).
+    raced: Vec<AtomicBool>,
 }
 
 /// A record's state between its removal's return and its epoch.
@@ -94,6 +99,10 @@ struct Outcome {
     /// Lookups at a record whose removal had returned before they began: each a chance to see
     /// it resurrected.
     chances: u64,
+    /// Removals of another worker's next record, racing its insert: how many were made, and the
+    /// records they took.
+    races: u64,
+    taken: Vec<(u32, u64)>,
 }
 
 struct RemovalStress;
@@ -107,6 +116,9 @@ impl SchemeCheck for RemovalStress {
                 .map(|_| AtomicU64::new(0))
                 .collect(),
             epoch: AtomicU64::new(0),
+            raced: (0..INSERTS * u64::from(THREADS))
+                .map(|_| AtomicBool::new(false))
+                .collect(),
         };
         let frame = cache.frame();
         let outcomes = frame.run(THREADS as usize, |h, worker| {
@@ -114,11 +126,25 @@ impl SchemeCheck for RemovalStress {
         });
         let report = frame.close();
 
-        let removed: u64 = outcomes.iter().map(|o| o.removed.len() as u64).sum();
+        let own: u64 = outcomes.iter().map(|o| o.removed.len() as u64).sum();
+        let taken: HashSet<(u32, u64)> = outcomes.iter().flat_map(|o| o.taken.clone()).collect();
+        let removed = own + taken.len() as u64;
         assert_eq!(
             report.workers.removed, removed,
             "{scheme}: removals counted"
         );
+        // Removals racing another worker's insert of the record they select: both outcomes, where
+        // workers run at once (TRA runs them one after another; LW's in-frame records are private
+        // to their worker, so another's removal never takes one).
+        let races: u64 = outcomes.iter().map(|o| o.races).sum();
+        if !matches!(scheme, "tra" | "lw") {
+            assert!(
+                !taken.is_empty() && (taken.len() as u64) < races,
+                "{scheme}: of {races} removals racing an insert, {} took the record: the race \
+                 was not run both ways",
+                taken.len()
+            );
+        }
         assert!(
             removed >= REMOVALS * u64::from(THREADS) * 9 / 10,
             "{scheme}: {removed} removals"
@@ -137,7 +163,9 @@ impl SchemeCheck for RemovalStress {
         );
         eprintln!(
             "{scheme}: {removed} removals, {lookups} lookups meeting {met} records, checked; \
-             {chances} of them at a record already removed"
+             {chances} of them at a record already removed; {races} removals raced an insert \
+             and took {} records",
+            taken.len()
         );
 
         // Exactly the stored records that were not removed are left.
@@ -147,7 +175,7 @@ impl SchemeCheck for RemovalStress {
             want.extend(
                 o.stored
                     .iter()
-                    .filter(|s| !gone.contains(s))
+                    .filter(|s| !gone.contains(s) && !taken.contains(&(worker as u32, **s)))
                     .map(|&s| (worker as u32, s)),
             );
         }
@@ -173,6 +201,8 @@ fn work<H: CacheHandle>(h: &mut H, me: u32, shared: &Shared, scheme: &str) -> Ou
         lookups: 0,
         met: 0,
         chances: 0,
+        races: 0,
+        taken: Vec::new(),
     };
     let mut alive: Vec<u64> = Vec::new();
     let mut found = Vec::new();
@@ -198,19 +228,20 @@ fn work<H: CacheHandle>(h: &mut H, me: u32, shared: &Shared, scheme: &str) -> Ou
             let victim = alive.swap_remove(k);
             let p = record(me, victim).position;
             let n = h.remove(&Selection::touching(p, p).unwrap());
-            // LW removes its own local records at once, as the others remove theirs.
-            assert_eq!(n, 1, "{scheme}: the removal of r{me}.{victim} took {n}");
-            out.removed.push(victim);
-            let gone = &shared.gone[Shared::slot(me, victim)];
-            // Release: ordered before the increment below (program order, and the increment is
-            // a release), so a lookup that reads its epoch or later reads this or what follows.
-            gone.store(PENDING, Ordering::Release);
-            // AcqRel: the increment happens-after the removal and the store above, and a lookup
-            // that loads this value or a later one (Acquire; the increments form one release
-            // sequence) happens-after both.
-            let e = shared.epoch.fetch_add(1, Ordering::AcqRel) + 1;
-            // Release: a lookup that reads `PENDING` waits for this value.
-            gone.store(e, Ordering::Release);
+            // LW removes its own local records at once, as the others remove theirs. A record
+            // may be gone already, taken by another worker's racing removal.
+            if n == 0 {
+                await_raced(shared, me, victim, scheme);
+            } else {
+                assert_eq!(n, 1, "{scheme}: the removal of r{me}.{victim} took {n}");
+                out.removed.push(victim);
+                mark_gone(shared, me, victim);
+            }
+        }
+        // Now and then, remove another worker's next record, racing its insert: the removal
+        // meets the slot reserved and not yet written, or the record, or nothing.
+        if seq % 16 == 5 {
+            race(h, me, seq, shared, &mut out);
         }
 
         for _ in 0..lookups_per_insert {
@@ -262,6 +293,55 @@ fn work<H: CacheHandle>(h: &mut H, me: u32, shared: &Shared, scheme: &str) -> Ou
         }
     }
     out
+}
+
+/// Marks `worker`'s record `seq` removed (see `Shared`): `PENDING`, then its epoch.
+fn mark_gone(shared: &Shared, worker: u32, seq: u64) {
+    let gone = &shared.gone[Shared::slot(worker, seq)];
+    // Release: ordered before the increment below (program order, and the increment is a
+    // release), so a lookup that reads its epoch or later reads this or what follows.
+    gone.store(PENDING, Ordering::Release);
+    // AcqRel: the increment happens-after the removal and the store above, and a lookup that
+    // loads this value or a later one (Acquire; the increments form one release sequence)
+    // happens-after both.
+    let e = shared.epoch.fetch_add(1, Ordering::AcqRel) + 1;
+    // Release: a lookup that reads `PENDING` waits for this value.
+    gone.store(e, Ordering::Release);
+}
+
+/// Removes the record another worker inserts next, racing that insert: a point selection at its
+/// centre takes it or nothing. A record taken is marked gone and raced, so its owner, whose own
+/// removal of it will then take nothing, knows why.
+fn race<H: CacheHandle>(h: &mut H, me: u32, seq: u64, shared: &Shared, out: &mut Outcome) {
+    let other = (me + 1 + (seq as u32 / 16) % (THREADS - 1)) % THREADS;
+    // Acquire: the count of the other worker's inserts that have returned; its next is in
+    // flight or about to be.
+    let next = shared.inserted[other as usize].load(Ordering::Acquire);
+    if next >= INSERTS {
+        return;
+    }
+    let p = record(other, next).position;
+    out.races += 1;
+    if h.remove(&Selection::touching(p, p).unwrap()) == 1 {
+        out.taken.push((other, next));
+        mark_gone(shared, other, next);
+        // Release: the owner's Acquire load that sees this happens-after the marks above.
+        shared.raced[Shared::slot(other, next)].store(true, Ordering::Release);
+    }
+}
+
+/// The owner's removal of its record `seq` took nothing: another worker's racing removal must
+/// have taken it. Waits (at most ten seconds) for that worker to say so.
+fn await_raced(shared: &Shared, me: u32, seq: u64, scheme: &str) {
+    let start = std::time::Instant::now();
+    // Acquire: pairs with the racer's Release store.
+    while !shared.raced[Shared::slot(me, seq)].load(Ordering::Acquire) {
+        assert!(
+            start.elapsed().as_secs() < 10,
+            "{scheme}: the removal of r{me}.{seq} took nothing, and no other removal took it"
+        );
+        std::thread::yield_now();
+    }
 }
 
 #[test]
