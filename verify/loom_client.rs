@@ -685,9 +685,7 @@ fn ci_plan(p: &[Vec<Kind>]) -> bool {
 #[test]
 #[ignore = "the whole set, a long run (docs/verification.md)"]
 fn every_plan_of_two_threads_of_three_operations() {
-    let start = std::time::Instant::now();
-    let counts = run_all(2, 3, bound(BOUND), |_| true);
-    write_page("two-threads", 2, 3, &counts, start.elapsed());
+    sweep("two-threads", 2, 3);
 }
 
 /// Every plan of 3 threads of 2 operations, in every layout; writes
@@ -695,9 +693,59 @@ fn every_plan_of_two_threads_of_three_operations() {
 #[test]
 #[ignore = "the whole set, a long run (docs/verification.md)"]
 fn every_plan_of_three_threads_of_two_operations() {
+    sweep("three-threads", 3, 2);
+}
+
+/// One row of a sweep's CSV: the executions of one combination, and the commit that ran it.
+struct Row {
+    executions: usize,
+    commit: String,
+}
+
+/// Runs every plan of `threads` x `ops` in every layout at [`BOUND`], resuming: a combination
+/// already in `results/loom-client/{stem}.csv` (run at the same bound) is not run again. Each
+/// combination's row is appended as it finishes and the page rewritten, so a sweep stopped at
+/// any point leaves a true, partial page; run again, it goes on where it stopped.
+fn sweep(stem: &str, threads: usize, ops: usize) {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("results/loom-client");
+    std::fs::create_dir_all(&dir).expect("results/loom-client");
+    let csv = dir.join(format!("{stem}.csv"));
+    let bound = bound(BOUND);
+    let bound_text = bound.map_or("none".to_owned(), |b| b.to_string());
+    let mut rows: BTreeMap<(Layout, String), Row> = BTreeMap::new();
+    if let Ok(text) = std::fs::read_to_string(&csv) {
+        for line in text.lines().skip(1) {
+            let f: Vec<&str> = line.split(',').collect();
+            let layout = Layout::ALL.into_iter().find(|l| format!("{l:?}") == f[0]);
+            if let (Some(layout), true) = (layout, f[3] == bound_text) {
+                let executions = f[2].parse().expect("a count");
+                let commit = f[4].to_owned();
+                rows.insert((layout, f[1].to_owned()), Row { executions, commit });
+            }
+        }
+    }
+    let commit = output_of("git", &["rev-parse", "--short", "HEAD"]);
+    let all = plans(threads, ops);
+    let total = Layout::ALL.len() * all.len();
     let start = std::time::Instant::now();
-    let counts = run_all(3, 2, bound(BOUND), |_| true);
-    write_page("three-threads", 3, 2, &counts, start.elapsed());
+    for layout in Layout::ALL {
+        for plan in &all {
+            let key = (layout, label(plan));
+            if rows.contains_key(&key) {
+                continue;
+            }
+            let executions = explore::<Minimal>(layout, plan, bound);
+            eprintln!("{layout:?} {}: {executions} executions", key.1);
+            let commit = commit.clone();
+            rows.insert(key, Row { executions, commit });
+            let mut text = String::from("layout,plan,executions,bound,commit\n");
+            for ((l, p), r) in &rows {
+                let _ = writeln!(text, "{l:?},{p},{},{bound_text},{}", r.executions, r.commit);
+            }
+            std::fs::write(&csv, text).expect("the CSV");
+            write_page(stem, threads, ops, total, &rows, start.elapsed());
+        }
+    }
 }
 
 /// The output of `cmd args`, trimmed (empty if it cannot run).
@@ -710,22 +758,17 @@ fn output_of(cmd: &str, args: &[&str]) -> String {
         .unwrap_or_default()
 }
 
-/// Writes the executions per combination (CSV) and a page with the totals, the largest
-/// combinations and where the run was made.
+/// Writes a sweep's page: how far it got, the totals per layout, the largest combinations and
+/// where the run was made.
 fn write_page(
     stem: &str,
     threads: usize,
     ops: usize,
-    counts: &BTreeMap<(Layout, String), usize>,
+    total: usize,
+    rows: &BTreeMap<(Layout, String), Row>,
     took: std::time::Duration,
 ) {
     let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("results/loom-client");
-    std::fs::create_dir_all(&dir).expect("results/loom-client");
-    let mut csv = String::from("layout,plan,executions\n");
-    for ((layout, plan), n) in counts {
-        let _ = writeln!(csv, "{layout:?},{plan},{n}");
-    }
-    std::fs::write(dir.join(format!("{stem}.csv")), csv).expect("the CSV");
     let cpu = std::fs::read_to_string("/proc/cpuinfo")
         .ok()
         .and_then(|c| {
@@ -734,27 +777,38 @@ fn write_page(
                 .map(|l| l.split(':').nth(1).unwrap_or_default().trim().to_owned())
         })
         .unwrap_or_default();
-    let total: usize = counts.values().sum();
+    let executions: usize = rows.values().map(|r| r.executions).sum();
+    let mut commits: Vec<&str> = rows.values().map(|r| r.commit.as_str()).collect();
+    commits.sort_unstable();
+    commits.dedup();
     let bound = bound(BOUND).map_or("none".to_owned(), |b| b.to_string());
+    let state = if rows.len() == total {
+        "complete".to_owned()
+    } else {
+        format!("**partial**: {} of {total} combinations so far", rows.len())
+    };
     let mut md = format!(
         "# The generic loom client: {threads} threads of {ops} operations\n\n\
          Generated by `cargo test --release --features loom --test loom_client -- --ignored` \
          (`verify/loom_client.rs`; how to read it: \
-         [docs/verification.md](../../docs/verification.md#the-generic-client)).\n\n\
-         - commit {}, {}, {}\n- machine: {cpu}, {} cores; the run took {:.0} s (wall)\n\
-         - preemption bound {bound}; policy `Minimal`, `Adopt`; every execution judged\n\n\
+         [docs/verification.md](../../docs/verification.md#the-generic-client)). A sweep resumes \
+         from `{stem}.csv`, which holds every combination's executions and the commit that ran it.\n\n\
+         - {state}; every execution judged, none failed\n\
+         - commits {}; {}; page written {}\n\
+         - machine: {cpu}, {} cores; this stretch of the sweep took {:.0} s (wall)\n\
+         - preemption bound {bound}; policy `Minimal`, `Adopt`\n\n\
          | layout | combinations | executions |\n|---|---:|---:|\n",
-        output_of("git", &["rev-parse", "--short", "HEAD"]),
+        commits.join(", "),
         output_of("rustc", &["--version"]),
         output_of("date", &["-u", "+%Y-%m-%d %H:%M UTC"]),
         std::thread::available_parallelism().map_or(0, |n| n.get()),
         took.as_secs_f64(),
     );
     for layout in Layout::ALL {
-        let of: Vec<usize> = counts
+        let of: Vec<usize> = rows
             .iter()
             .filter(|((l, _), _)| *l == layout)
-            .map(|(_, n)| *n)
+            .map(|(_, r)| r.executions)
             .collect();
         let _ = writeln!(
             md,
@@ -763,16 +817,17 @@ fn write_page(
             of.iter().sum::<usize>()
         );
     }
-    let _ = writeln!(md, "| **all** | **{}** | **{total}** |\n", counts.len());
-    let mut largest: Vec<_> = counts.iter().collect();
-    largest.sort_by_key(|(_, n)| std::cmp::Reverse(**n));
-    md.push_str("The ten largest combinations (every one is in the CSV beside this page):\n\n");
+    let _ = writeln!(md, "| **all** | **{}** | **{executions}** |\n", rows.len());
+    let mut largest: Vec<_> = rows.iter().collect();
+    largest.sort_by_key(|(_, r)| std::cmp::Reverse(r.executions));
+    md.push_str("The ten largest combinations:\n\n");
     md.push_str("| layout | plan | executions |\n|---|---|---:|\n");
-    for ((layout, plan), n) in largest.into_iter().take(10) {
+    for ((layout, plan), r) in largest.into_iter().take(10) {
         let _ = writeln!(
             md,
-            "| {layout:?} | `{}` | {n} |",
-            plan.replace(" | ", " / ")
+            "| {layout:?} | `{}` | {} |",
+            plan.replace(" | ", " / "),
+            r.executions
         );
     }
     std::fs::write(dir.join(format!("{stem}.md")), md).expect("the page");

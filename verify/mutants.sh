@@ -11,6 +11,9 @@
 #                                                           (the lines of src/cache/*.rs, src/ic or
 #                                                            src/research/lincheck that removal changed: the
 #                                                            diff from $removal_base, --in-diff)
+#   bash verify/mutants.sh render-tiles|render-distributed  (the renderer's tile loop and work
+#                                                            source; its MPI exchange, with the
+#                                                            mpi feature: needs OpenMPI, as CI)
 #   bash verify/mutants.sh summary SCOPE                    (rewrite SCOPE's summary.md)
 #
 # Each scope runs as a cascade: every mutant is first tested against the fastest suite that can
@@ -81,7 +84,8 @@ summary() {
     if [ -f "$root/results/mutants/$scope/diff.patch" ]; then
         re=(--in-diff "$root/results/mutants/$scope/diff.patch")
     fi
-    cargo mutants --list -f "$filter" "${re[@]}" > "$root/results/mutants/$scope/mutants-now.txt"
+    # shellcheck disable=SC2046
+    cargo mutants --list -f "$filter" "${re[@]}" $(list_args_of "$scope") > "$root/results/mutants/$scope/mutants-now.txt"
     python3 - "$root/results/mutants/$scope" "$(git rev-parse HEAD)" "$version" <<'PY'
 import pathlib, sys, datetime
 out, commit, version = pathlib.Path(sys.argv[1]), sys.argv[2], sys.argv[3]
@@ -157,6 +161,16 @@ filter_of() {
         cache-removal) echo 'src/cache/*.rs' ;;
         ic | ic-removal) echo 'src/ic/**' ;;
         lincheck | lincheck-removal) echo 'src/research/lincheck/**' ;;
+        render-tiles) echo 'crates/render/src/parallel.rs' ;;
+        render-distributed) echo 'crates/render/src/distributed.rs' ;;
+    esac
+}
+
+# The further options a scope's mutant list needs (the renderer is another package of the workspace).
+list_args_of() {
+    case $1 in
+        render-tiles) echo --workspace -f crates/render/src/work.rs ;;
+        render-distributed) echo --workspace --features mpi ;;
     esac
 }
 
@@ -240,8 +254,26 @@ run_scope() {
             # What only the loom build compiles (a full model list's refusal).
             stage "$scope" no -f 'src/research/lincheck/**' "${d[@]}" --features loom -- --lib
             ;;
+        render-tiles)
+            # The tile loop (`parallel.rs`) and the one work source behind every way of rendering
+            # tiles (`work.rs`): the renderer's unit tests first, then the renderer suite, which
+            # renders every scene with every scheme against the reference. Release: the suite
+            # renders real images.
+            local f=(--workspace -f crates/render/src/parallel.rs -f crates/render/src/work.rs)
+            stage "$scope" yes "${f[@]}" --test-package wfic-render --cargo-arg=--release --cargo-arg=--lib
+            stage "$scope" no "${f[@]}" --test-package wfic-experiments --cargo-arg=--release \
+                $(targets render)
+            ;;
+        render-distributed)
+            # The MPI exchange: its unit tests, then the suite that runs `mpirun -np 2` and 3 and
+            # compares the images and the records sent, received and inserted.
+            local f=(--workspace -f crates/render/src/distributed.rs --features mpi)
+            stage "$scope" yes "${f[@]}" --test-package wfic-render --cargo-arg=--release --cargo-arg=--lib
+            stage "$scope" no "${f[@]}" --test-package wfic-experiments --cargo-arg=--release \
+                $(targets mpi)
+            ;;
         *)
-            echo "unknown scope $scope (wf, cache, ic, lincheck or all)" >&2
+            echo "unknown scope $scope (wf, cache, ic, lincheck, render-tiles, render-distributed or all)" >&2
             exit 64
             ;;
     esac
