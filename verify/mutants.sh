@@ -11,6 +11,8 @@
 #                                                           (the lines of src/cache/*.rs, src/ic or
 #                                                            src/research/lincheck that removal changed: the
 #                                                            diff from $removal_base, --in-diff)
+#   bash verify/mutants.sh cache-work                       (the lines of src/cache/*.rs that
+#                                                            counting removal's work changed)
 #   bash verify/mutants.sh render-tiles|render-distributed  (the renderer's tile loop and work
 #                                                            source; its MPI exchange, with the
 #                                                            mpi feature: needs OpenMPI, as CI)
@@ -136,6 +138,8 @@ PY
 
 # The commit before removal (issue 13) began: the *-removal scopes mutate the lines changed since.
 removal_base=22179d0
+# The commit before removal's work was counted (issue 39): cache-work mutates the lines changed since.
+work_base=ac128b0
 # diff_of SCOPE: the --in-diff options of a *-removal scope (the diff is kept beside its results).
 diff_of() {
     local scope=$1 out="$root/results/mutants/$1"
@@ -143,6 +147,7 @@ diff_of() {
         cache-removal) git diff "$removal_base" -- 'src/cache/*.rs' > "$out/diff.patch" ;;
         ic-removal) git diff "$removal_base" -- src/ic > "$out/diff.patch" ;;
         lincheck-removal) git diff "$removal_base" -- src/research/lincheck > "$out/diff.patch" ;;
+        cache-work) git diff "$work_base" -- 'src/cache/*.rs' > "$out/diff.patch" ;;
         *) return 0 ;;
     esac
     echo --in-diff "$out/diff.patch"
@@ -158,7 +163,7 @@ filter_of() {
         wf-lookup) echo 'src/cache/wf/**' ;;
         wf-removal) echo 'src/cache/wf/**' ;;
         cache-lookup) echo 'src/cache/{octree,sequential}.rs' ;;
-        cache-removal) echo 'src/cache/*.rs' ;;
+        cache-removal | cache-work) echo 'src/cache/*.rs' ;;
         ic | ic-removal) echo 'src/ic/**' ;;
         lincheck | lincheck-removal) echo 'src/research/lincheck/**' ;;
         render-tiles) echo 'crates/render/src/parallel.rs' ;;
@@ -232,8 +237,9 @@ run_scope() {
                 $(targets agreement robustness leaks wf_api lookup_work lincheck)
             stage cache-lookup no "${f[@]}" --no-default-features $(targets stress)
             ;;
-        cache-removal)
-            # The lines of src/cache/*.rs that removal changed, through the cache scope's stages.
+        cache-removal | cache-work)
+            # The lines of src/cache/*.rs that removal (or the counting of its work) changed,
+            # through the cache scope's stages.
             stage "$scope" yes -f 'src/cache/*.rs' "${d[@]}" --no-default-features --cargo-arg=--lib
             stage "$scope" no -f 'src/cache/*.rs' "${d[@]}" --no-default-features --features loom \
                 $(targets loom_lck_lw loom_wf)
