@@ -463,6 +463,19 @@ impl<H: CacheHandle> CacheHandle for DropsEveryThird<H> {
         self.inner.worker()
     }
 
+    fn frame(&self) -> u64 {
+        self.inner.frame()
+    }
+
+    fn lookup_visible(
+        &mut self,
+        point: Vec3,
+        normal: Vec3,
+        visible: wfic::cache::Visibility,
+    ) -> Option<Interpolated> {
+        self.inner.lookup_visible(point, normal, visible)
+    }
+
     fn lookup(&mut self, point: Vec3, normal: Vec3) -> Option<Interpolated> {
         self.inner.lookup(point, normal)
     }
@@ -736,6 +749,19 @@ struct SeesDouble<H> {
 impl<H: CacheHandle> CacheHandle for SeesDouble<H> {
     fn worker(&self) -> WorkerId {
         self.inner.worker()
+    }
+
+    fn frame(&self) -> u64 {
+        self.inner.frame()
+    }
+
+    fn lookup_visible(
+        &mut self,
+        point: Vec3,
+        normal: Vec3,
+        visible: wfic::cache::Visibility,
+    ) -> Option<Interpolated> {
+        self.inner.lookup_visible(point, normal, visible)
     }
 
     fn lookup(&mut self, point: Vec3, normal: Vec3) -> Option<Interpolated> {
@@ -1076,6 +1102,19 @@ struct ReturnsLate<'a, H> {
 impl<H: CacheHandle> CacheHandle for ReturnsLate<'_, H> {
     fn worker(&self) -> WorkerId {
         self.inner.worker()
+    }
+
+    fn frame(&self) -> u64 {
+        self.inner.frame()
+    }
+
+    fn lookup_visible(
+        &mut self,
+        point: Vec3,
+        normal: Vec3,
+        visible: wfic::cache::Visibility,
+    ) -> Option<Interpolated> {
+        self.inner.lookup_visible(point, normal, visible)
     }
 
     fn lookup(&mut self, point: Vec3, normal: Vec3) -> Option<Interpolated> {

@@ -481,6 +481,19 @@ impl<H: CacheHandle> CacheHandle for RemovesNothing<H> {
     fn worker(&self) -> WorkerId {
         self.0.worker()
     }
+
+    fn frame(&self) -> u64 {
+        self.0.frame()
+    }
+
+    fn lookup_visible(
+        &mut self,
+        point: Vec3,
+        normal: Vec3,
+        visible: wfic::cache::Visibility,
+    ) -> Option<Interpolated> {
+        self.0.lookup_visible(point, normal, visible)
+    }
     fn lookup(&mut self, point: Vec3, normal: Vec3) -> Option<Interpolated> {
         self.0.lookup(point, normal)
     }

@@ -68,12 +68,15 @@
 //! drop(handle);
 //! ```
 
-use super::{CacheConfig, CacheStats, FrameReport, Inserted, IrradianceCache, WorkerStats};
+use super::{
+    CacheConfig, CacheStats, FrameReport, Inserted, IrradianceCache, Visibility, WorkerStats,
+};
 use crate::ic::WorkerId;
 use crate::ic::{self, Accumulator, InsertError, Interpolated, Record, RecordId};
 use crate::sync::unchecked::{self, AtomicU32, AtomicU64};
 use crate::sync::unpoison;
 use glam::Vec3;
+use std::collections::HashSet;
 use std::fmt;
 
 /// What a dropped handle leaves in its cache's ledger.
@@ -109,8 +112,9 @@ pub(crate) struct Ledger<X> {
 struct LedgerState<X> {
     /// The open frame's number (frames closed so far).
     frame: u64,
-    /// Worker ids given a handle in the open frame.
-    issued: Vec<WorkerId>,
+    /// Worker ids given a handle in the open frame (a set: a deterministic frame gives every tile
+    /// its own handle, thousands a frame).
+    issued: HashSet<WorkerId>,
     /// What the dropped handles of the open frame left.
     deposits: Vec<Deposit<X>>,
 }
@@ -132,7 +136,7 @@ impl<X: Local> Ledger<X> {
             cache: NEXT_CACHE.fetch_add(1, unchecked::Ordering::Relaxed),
             state: unchecked::Mutex::new(LedgerState {
                 frame: 0,
-                issued: Vec::new(),
+                issued: HashSet::new(),
                 deposits: Vec::new(),
             }),
         }
@@ -145,7 +149,7 @@ impl<X: Local> Ledger<X> {
     pub fn issue(&self, worker: WorkerId) -> u64 {
         let mut state = unpoison(self.state.lock());
         let frame = state.frame;
-        if state.issued.contains(&worker) {
+        if !state.issued.insert(worker) {
             drop(state);
             panic!(
                 "{worker} already has a handle in frame {frame} of cache #{}: one handle per \
@@ -154,7 +158,6 @@ impl<X: Local> Ledger<X> {
                 self.cache
             );
         }
-        state.issued.push(worker);
         frame
     }
 
@@ -184,12 +187,10 @@ impl<X: Local> Ledger<X> {
     pub fn close(&mut self) -> Vec<Deposit<X>> {
         let cache = self.cache;
         let state = unpoison(self.state.get_mut());
-        let missing: Vec<String> = state
-            .issued
-            .iter()
-            .filter(|w| !state.deposits.iter().any(|d| d.worker == **w))
-            .map(|w| w.to_string())
-            .collect();
+        let back: HashSet<WorkerId> = state.deposits.iter().map(|d| d.worker).collect();
+        let mut missing: Vec<WorkerId> = state.issued.difference(&back).copied().collect();
+        missing.sort_unstable();
+        let missing: Vec<String> = missing.iter().map(WorkerId::to_string).collect();
         let frame = state.frame;
         state.issued.clear();
         state.frame += 1;
@@ -378,6 +379,9 @@ pub(crate) struct HandleCore<'c, X: Local> {
     pub next_seq: u64,
     pub stats: WorkerStats,
     pub local: X,
+    /// The records a [`HandleCore::lookup_visible`] collects before summing them in order, kept
+    /// so that a lookup does not allocate.
+    found: Vec<Record>,
     ledger: &'c Ledger<X>,
 }
 
@@ -404,6 +408,7 @@ impl<'c, X: Local> HandleCore<'c, X> {
             next_seq: 0,
             stats: WorkerStats::default(),
             local,
+            found: Vec::new(),
             ledger,
         }
     }
@@ -474,6 +479,37 @@ impl<'c, X: Local> HandleCore<'c, X> {
             }
         }
         out
+    }
+}
+
+impl<X: Local> HandleCore<'_, X> {
+    /// [`CacheHandle::lookup_visible`](super::CacheHandle::lookup_visible) through a cache's
+    /// `walk` (given the query's prefilter, the handle's own part and a visitor for the records
+    /// it admits): collects the
+    /// records `visible` admits, sorts them by [`Record::canonical_key`] and only then sums them,
+    /// so the floating-point sum is the same whatever order the walk met them in.
+    #[inline]
+    pub fn lookup_visible(
+        &mut self,
+        config: &CacheConfig,
+        point: Vec3,
+        normal: Vec3,
+        visible: Visibility,
+        walk: impl FnOnce(&ic::Prefilter, &X, &mut dyn FnMut(&Record)) -> Work,
+    ) -> Option<Interpolated> {
+        let mut acc = self.begin_lookup(config, point, normal)?;
+        let found = &mut self.found;
+        found.clear();
+        let work = walk(acc.prefilter(), &self.local, &mut |r: &Record| {
+            if visible.admits(r.id()) {
+                found.push(*r);
+            }
+        });
+        found.sort_unstable_by_key(Record::canonical_key);
+        for r in found.iter() {
+            acc.add(r);
+        }
+        self.end_lookup(&acc, work)
     }
 }
 

@@ -29,6 +29,7 @@
 //! would answer from one of the two caches. Here one lookup averages the valid records of both,
 //! which is exactly what a single merged cache would answer.
 
+use super::deterministic::Visibility;
 use super::frame::{collect_valid, HandleCore, Ledger, Local};
 use super::{
     CacheConfig, CacheHandle, CacheStats, FrameReport, Inserted, IrradianceCache, Octree, Scheme,
@@ -161,6 +162,10 @@ impl CacheHandle for LwHandle<'_> {
         self.core.worker
     }
 
+    fn frame(&self) -> u64 {
+        self.core.frame
+    }
+
     #[inline]
     fn lookup(&mut self, point: Vec3, normal: Vec3) -> Option<Interpolated> {
         let mut acc = self
@@ -179,6 +184,26 @@ impl CacheHandle for LwHandle<'_> {
                 .walk(point, |k| pre.admits(k), &mut add);
         }
         self.core.end_lookup(&acc, work)
+    }
+
+    fn lookup_visible(
+        &mut self,
+        point: Vec3,
+        normal: Vec3,
+        visible: Visibility,
+    ) -> Option<Interpolated> {
+        let global = self.global;
+        // As a lookup does: the local octree only once it holds a record.
+        self.core
+            .lookup_visible(global.config(), point, normal, visible, |pre, local, f| {
+                let mut work = global.walk(pre.point(), |k| pre.admits(k), &mut |r| f(r));
+                if !local.tree.is_empty() {
+                    work += local
+                        .tree
+                        .walk(pre.point(), |k| pre.admits(k), &mut |r| f(r));
+                }
+                work
+            })
     }
 
     fn insert(&mut self, record: Record) -> Result<Inserted, InsertError> {

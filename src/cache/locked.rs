@@ -6,6 +6,7 @@
 //! the lock; only when that fails is the wait timed, so an uncontended acquisition costs no clock
 //! reads. The time spent waiting is summed over workers (the paper's LCK overhead in Table 1).
 
+use super::deterministic::Visibility;
 use super::frame::{collect_valid, HandleCore, Ledger};
 use super::{
     CacheConfig, CacheHandle, CacheStats, FrameReport, Inserted, IrradianceCache, Octree, Scheme,
@@ -219,6 +220,10 @@ impl<F: LockFlavour> CacheHandle for LckHandle<'_, F> {
         self.core.worker
     }
 
+    fn frame(&self) -> u64 {
+        self.core.frame
+    }
+
     #[inline]
     fn lookup(&mut self, point: Vec3, normal: Vec3) -> Option<Interpolated> {
         let mut acc = self.core.begin_lookup(&self.cache.config, point, normal)?;
@@ -235,6 +240,24 @@ impl<F: LockFlavour> CacheHandle for LckHandle<'_, F> {
             })
         };
         self.core.end_lookup(&acc, work)
+    }
+
+    fn lookup_visible(
+        &mut self,
+        point: Vec3,
+        normal: Vec3,
+        visible: Visibility,
+    ) -> Option<Interpolated> {
+        let cache = self.cache;
+        let guard = acquire(
+            &mut self.core.stats.lock_wait,
+            || cache.tree.try_read(),
+            || cache.tree.read(),
+        );
+        self.core
+            .lookup_visible(&cache.config, point, normal, visible, |pre, _, f| {
+                guard.walk(pre.point(), |k| pre.admits(k), &mut |r| f(r))
+            })
     }
 
     fn insert(&mut self, record: Record) -> Result<Inserted, InsertError> {

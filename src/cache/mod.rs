@@ -15,6 +15,7 @@
 //! cache when it is dropped. Closing the frame takes `&mut` access: LW merges there, and the
 //! borrow checker rules out a handle that outlives the frame. [`Scheme`] lists the schemes.
 
+pub mod deterministic;
 pub mod frame;
 mod local_write;
 mod locked;
@@ -24,6 +25,7 @@ mod scheme;
 mod sequential;
 pub mod wf;
 
+pub use deterministic::{TileHandle, Visibility};
 #[cfg(not(checker))]
 pub use frame::run_frame;
 pub use frame::Frame;
@@ -329,9 +331,23 @@ pub trait CacheHandle {
     /// The worker this handle belongs to.
     fn worker(&self) -> WorkerId;
 
+    /// The number of the frame this handle belongs to (the frames the cache closed before it):
+    /// the frame its records' ids carry, modulo 2^16 ([`RecordId::frame`]).
+    fn frame(&self) -> u64;
+
     /// Interpolated irradiance at `point` with unit `normal`, or `None` when no record is valid
     /// there (or the query is not finite).
     fn lookup(&mut self, point: Vec3, normal: Vec3) -> Option<Interpolated>;
+
+    /// [`Self::lookup`] over only the records `visible` admits, summed in record-id order: the
+    /// answer depends on which admitted records the cache holds, never on the order it holds
+    /// them in (the lookup of a deterministic frame, [`deterministic`]). Counted as a lookup.
+    fn lookup_visible(
+        &mut self,
+        point: Vec3,
+        normal: Vec3,
+        visible: Visibility,
+    ) -> Option<Interpolated>;
 
     /// Stores `record` (its id and check field are assigned here). Bad input is refused with a
     /// typed error and changes nothing.

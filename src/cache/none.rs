@@ -3,6 +3,7 @@
 //! estimate, insert). Rendered with it, a frame is the reference the cached schemes are measured
 //! against.
 
+use super::deterministic::Visibility;
 use super::frame::{HandleCore, Ledger, Work};
 use super::{
     CacheConfig, CacheHandle, CacheStats, FrameReport, Inserted, IrradianceCache, Scheme,
@@ -80,10 +81,26 @@ impl CacheHandle for NoCacheHandle<'_> {
         self.core.worker
     }
 
+    fn frame(&self) -> u64 {
+        self.core.frame
+    }
+
     #[inline]
     fn lookup(&mut self, point: Vec3, normal: Vec3) -> Option<Interpolated> {
         let acc = self.core.begin_lookup(self.config, point, normal)?;
         self.core.end_lookup(&acc, Work::default())
+    }
+
+    fn lookup_visible(
+        &mut self,
+        point: Vec3,
+        normal: Vec3,
+        visible: Visibility,
+    ) -> Option<Interpolated> {
+        self.core
+            .lookup_visible(self.config, point, normal, visible, |_, _, _| {
+                Work::default()
+            })
     }
 
     fn insert(&mut self, record: Record) -> Result<Inserted, InsertError> {

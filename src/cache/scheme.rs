@@ -118,6 +118,13 @@ impl Scheme {
         !matches!(self, Self::Tra)
     }
 
+    /// True for the schemes a deterministic frame ([`super::deterministic`]) can run: all but
+    /// [`Scheme::WfDiscard`], which drops a record whose insert loses a race for a child, so which
+    /// records a frame keeps depends on the schedule.
+    pub const fn is_deterministic(self) -> bool {
+        !matches!(self, Self::WfDiscard)
+    }
+
     /// Builds this scheme's cache over `config` and runs `job` on it. WF uses the [`Minimal`]
     /// orderings; [`Scheme::None`] builds a [`NoCache`]. The one place a scheme becomes a type.
     pub fn build<J: CacheJob>(self, config: CacheConfig, job: J) -> J::Output {

@@ -10,6 +10,7 @@
 //! octree's lock for the whole frame, so lookups and inserts pay nothing for it; a second worker
 //! asking for a handle waits until the first one is finished. TRA is meant to run on one thread.
 
+use super::deterministic::Visibility;
 use super::frame::{collect_valid, HandleCore, Ledger, Local, Work};
 use super::octree::{Cell, Octant};
 use super::{
@@ -360,6 +361,10 @@ impl CacheHandle for SeqHandle<'_> {
         self.core.worker
     }
 
+    fn frame(&self) -> u64 {
+        self.core.frame
+    }
+
     #[inline]
     fn lookup(&mut self, point: Vec3, normal: Vec3) -> Option<Interpolated> {
         let mut acc = self.core.begin_lookup(self.tree.config(), point, normal)?;
@@ -368,6 +373,19 @@ impl CacheHandle for SeqHandle<'_> {
             acc.add(r);
         });
         self.core.end_lookup(&acc, work)
+    }
+
+    fn lookup_visible(
+        &mut self,
+        point: Vec3,
+        normal: Vec3,
+        visible: Visibility,
+    ) -> Option<Interpolated> {
+        let tree = &*self.tree;
+        self.core
+            .lookup_visible(tree.config(), point, normal, visible, |pre, _, f| {
+                tree.walk(pre.point(), |k| pre.admits(k), &mut |r| f(r))
+            })
     }
 
     fn insert(&mut self, record: Record) -> Result<Inserted, InsertError> {

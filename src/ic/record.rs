@@ -249,6 +249,12 @@ impl Record {
         self
     }
 
+    /// The key deterministic lookups sum records in: the id, then the check field, so that even
+    /// two records whose ids coincide (a frame number that wrapped modulo 2^16) have one order.
+    pub(crate) fn canonical_key(&self) -> (RecordId, u64) {
+        (self.id, self.check)
+    }
+
     /// True when the check field matches the other fields: the record was read whole, as sealed.
     pub fn is_intact(&self) -> bool {
         self.check == self.digest()

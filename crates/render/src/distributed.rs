@@ -331,6 +331,19 @@ impl<H: CacheHandle> CacheHandle for Sending<'_, H> {
         self.inner.worker()
     }
 
+    fn frame(&self) -> u64 {
+        self.inner.frame()
+    }
+
+    fn lookup_visible(
+        &mut self,
+        point: Vec3,
+        normal: Vec3,
+        visible: wfic::cache::Visibility,
+    ) -> Option<Interpolated> {
+        self.inner.lookup_visible(point, normal, visible)
+    }
+
     fn lookup(&mut self, point: Vec3, normal: Vec3) -> Option<Interpolated> {
         self.inner.lookup(point, normal)
     }

@@ -73,6 +73,7 @@
 mod list;
 pub(crate) mod orderings;
 
+use super::deterministic::Visibility;
 use super::frame::{collect_valid, HandleCore, Ledger, Work};
 use super::octree::{Cell, Octant, MAX_DEPTH};
 use super::{
@@ -633,6 +634,10 @@ impl<O: Orderings> CacheHandle for WfHandle<'_, O> {
         self.core.worker
     }
 
+    fn frame(&self) -> u64 {
+        self.core.frame
+    }
+
     #[inline]
     fn lookup(&mut self, point: Vec3, normal: Vec3) -> Option<Interpolated> {
         let mut acc = self.core.begin_lookup(&self.cache.config, point, normal)?;
@@ -641,6 +646,19 @@ impl<O: Orderings> CacheHandle for WfHandle<'_, O> {
             acc.add(r);
         });
         self.core.end_lookup(&acc, work)
+    }
+
+    fn lookup_visible(
+        &mut self,
+        point: Vec3,
+        normal: Vec3,
+        visible: Visibility,
+    ) -> Option<Interpolated> {
+        let cache = self.cache;
+        self.core
+            .lookup_visible(&cache.config, point, normal, visible, |pre, _, f| {
+                cache.walk(pre.point(), |k| pre.admits(k), &mut |r| f(r))
+            })
     }
 
     fn insert(&mut self, record: Record) -> Result<Inserted, InsertError> {

@@ -207,6 +207,19 @@ impl<H: crate::cache::CacheHandle> crate::cache::CacheHandle for YieldsBeforeRet
         self.0.worker()
     }
 
+    fn frame(&self) -> u64 {
+        self.0.frame()
+    }
+
+    fn lookup_visible(
+        &mut self,
+        point: Vec3,
+        normal: Vec3,
+        visible: crate::cache::Visibility,
+    ) -> Option<crate::ic::Interpolated> {
+        self.0.lookup_visible(point, normal, visible)
+    }
+
     fn lookup(&mut self, point: Vec3, normal: Vec3) -> Option<crate::ic::Interpolated> {
         self.0.lookup(point, normal)
     }
