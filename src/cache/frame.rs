@@ -379,9 +379,9 @@ pub(crate) struct HandleCore<'c, X: Local> {
     pub next_seq: u64,
     pub stats: WorkerStats,
     pub local: X,
-    /// The records a [`HandleCore::lookup_visible`] collects before summing them in order, kept
-    /// so that a lookup does not allocate.
-    found: Vec<Record>,
+    /// What the valid records a [`HandleCore::lookup_visible`] met contribute, with their keys,
+    /// collected before they are summed in order; kept so that a lookup does not allocate.
+    found: Vec<((RecordId, u64), ic::Contribution)>,
     ledger: &'c Ledger<X>,
 }
 
@@ -485,9 +485,9 @@ impl<'c, X: Local> HandleCore<'c, X> {
 impl<X: Local> HandleCore<'_, X> {
     /// [`CacheHandle::lookup_visible`](super::CacheHandle::lookup_visible) through a cache's
     /// `walk` (given the query's prefilter, the handle's own part and a visitor for the records
-    /// it admits): collects the
-    /// records `visible` admits, sorts them by [`Record::canonical_key`] and only then sums them,
-    /// so the floating-point sum is the same whatever order the walk met them in.
+    /// it admits): weighs the valid records `visible` admits, sorts their contributions by
+    /// [`Record::canonical_key`] and only then sums them, so the floating-point sum is the same
+    /// whatever order the walk met them in.
     #[inline]
     pub fn lookup_visible(
         &mut self,
@@ -502,12 +502,14 @@ impl<X: Local> HandleCore<'_, X> {
         found.clear();
         let work = walk(acc.prefilter(), &self.local, &mut |r: &Record| {
             if visible.admits(r.id()) {
-                found.push(*r);
+                if let Some(c) = acc.weigh(r) {
+                    found.push((r.canonical_key(), c));
+                }
             }
         });
-        found.sort_unstable_by_key(Record::canonical_key);
-        for r in found.iter() {
-            acc.add(r);
+        found.sort_unstable_by_key(|(key, _)| *key);
+        for &(_, c) in found.iter() {
+            acc.take(c);
         }
         self.end_lookup(&acc, work)
     }

@@ -187,6 +187,14 @@ pub struct Interpolated {
     pub max_weight: f64,
 }
 
+/// One valid record's part of an interpolation ([`Accumulator::weigh`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Contribution {
+    weight: f64,
+    value: DVec3,
+    foreign: bool,
+}
+
 /// Accumulates valid records for one query; every cache and the brute-force oracle use it, so they
 /// decide validity and sum contributions with the same arithmetic.
 #[derive(Clone, Debug)]
@@ -235,19 +243,35 @@ impl Accumulator {
     /// Takes `record` into the average if it is valid for this query; returns whether it was.
     #[inline]
     pub fn add(&mut self, record: &Record) -> bool {
-        match valid_weight(record, self.point, self.normal, self.accuracy) {
-            Some(w) => {
-                self.weight += w;
-                self.max_weight = self.max_weight.max(w);
-                self.sum += w * extrapolate(record, self.point, self.normal).as_dvec3();
-                self.records += 1;
-                if self.asker.is_some_and(|me| record.id().worker() != me) {
-                    self.foreign += 1;
-                }
+        match self.weigh(record) {
+            Some(c) => {
+                self.take(c);
                 true
             }
             None => false,
         }
+    }
+
+    /// What `record` would add to the average, if it is valid for this query: for a caller that
+    /// orders the valid records before summing them ([`Self::take`]).
+    #[inline]
+    pub fn weigh(&self, record: &Record) -> Option<Contribution> {
+        let weight = valid_weight(record, self.point, self.normal, self.accuracy)?;
+        Some(Contribution {
+            weight,
+            value: weight * extrapolate(record, self.point, self.normal).as_dvec3(),
+            foreign: self.asker.is_some_and(|me| record.id().worker() != me),
+        })
+    }
+
+    /// Adds a contribution [`Self::weigh`] gave: exactly what [`Self::add`] adds for its record.
+    #[inline]
+    pub fn take(&mut self, c: Contribution) {
+        self.weight += c.weight;
+        self.max_weight = self.max_weight.max(c.weight);
+        self.sum += c.value;
+        self.records += 1;
+        self.foreign += u32::from(c.foreign);
     }
 
     /// The interpolated irradiance, or `None` when no record was valid.

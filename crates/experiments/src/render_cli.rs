@@ -122,6 +122,12 @@ pub struct RenderArgs {
     /// No progress bar.
     #[arg(long)]
     pub quiet: bool,
+    /// Deterministic frames: the same image and records, bit for bit, at any --threads and
+    /// --pool (pretrace passes, then tiles that use only earlier passes' records and their own,
+    /// summed in record-id order; not with --scheme wf-discard, which drops records by the
+    /// schedule).
+    #[arg(long)]
+    pub deterministic: bool,
     /// Render over MPI: run under `mpirun -np R`; the ranks split the tiles and exchange new
     /// records; rank 0 writes the outputs (needs the `mpi` feature; scheme `wf`).
     #[arg(long)]
@@ -255,7 +261,21 @@ pub fn settings_from(args: &RenderArgs) -> Result<RenderSettings, RenderError> {
             args.smoothing
         ));
     }
-    Ok(RenderSettings::new(args.width, args.height)
+    if args.deterministic && !args.scheme.is_deterministic() {
+        return usage(format!(
+            "--deterministic cannot run --scheme {}: it drops a record whose insert loses a race, \
+             so the records kept depend on the schedule (use wf)",
+            args.scheme
+        ));
+    }
+    if args.deterministic && args.distributed {
+        return usage(
+            "--deterministic is not available with --distributed yet: the ranks' exchange \
+             rounds are not aligned with the passes, so the image would depend on the schedule"
+                .to_owned(),
+        );
+    }
+    let mut settings = RenderSettings::new(args.width, args.height)
         .accuracy(args.accuracy)
         .rays_per_record(args.rays_per_record)
         .smoothing(args.smoothing)
@@ -263,12 +283,14 @@ pub fn settings_from(args: &RenderArgs) -> Result<RenderSettings, RenderError> {
         .pixel_samples(args.spp)
         .seed(args.seed)
         .quiet(args.quiet)
-        .pool(args.pool))
+        .pool(args.pool);
+    settings.deterministic = args.deterministic;
+    Ok(settings)
 }
 
 /// Runs `wfic render`.
 pub fn run_render(args: RenderArgs) -> Result<(), RenderError> {
-    if args.distributed {
+    if args.distributed && !args.deterministic {
         return run_distributed(args);
     }
     let settings = settings_from(&args)?;
@@ -335,7 +357,8 @@ pub fn run_render(args: RenderArgs) -> Result<(), RenderError> {
     let s = &frame.stats;
     println!(
         "{} {} {}x{} threads={}: {:.3} s, {} IC samples, {} lookups, {} hits ({:.1}% shared), \
-         lock wait {:.4} s, merge {:.4} s, {} discarded, {} records; wrote {}, {}, {}, {}",
+         lock wait {:.4} s, merge {:.4} s, {} discarded, {} records, image hash {}; wrote {}, \
+         {}, {}, {}",
         scene.name(),
         s.scheme,
         s.width,
@@ -350,6 +373,7 @@ pub fn run_render(args: RenderArgs) -> Result<(), RenderError> {
         s.merge_seconds,
         s.discarded,
         s.cache_records,
+        s.frame_hash,
         args.out.display(),
         pfm.display(),
         hdr.display(),

@@ -693,3 +693,56 @@ fn an_orbit_reuses_the_cache_and_every_frame_is_lit() {
         );
     }
 }
+
+/// `--deterministic` through the command line: an OBJ file's PFM, statistics hashes and record
+/// set the same bit for bit at 1, 2, 3, 8 and 64 threads (64 oversubscribed) and on the rayon
+/// pool; the options it cannot honour refused by name with exit 2.
+#[test]
+fn the_cli_renders_an_obj_file_deterministically_and_refuses_what_it_cannot_honour() {
+    let dir = temp_dir("deterministic");
+    std::fs::write(dir.join("box.obj"), BOX_OBJ).unwrap();
+    std::fs::write(dir.join("box.mtl"), BOX_MTL).unwrap();
+    let run = |threads: usize, pool: wfic_render::Pool| {
+        let mut a = args(&dir);
+        a.obj = Some(dir.join("box.obj"));
+        (a.eye, a.target) = (Some(Vec3::new(2.5, 0.5, 0.5)), Some(Vec3::splat(0.5)));
+        (a.threads, a.pool, a.deterministic) = (threads, pool, true);
+        run_render(a).unwrap();
+        let json = std::fs::read_to_string(dir.join("c.json")).unwrap();
+        let stats = wfic_render::stats::StatsJson::from_json(&json)
+            .unwrap()
+            .frame;
+        let pfm = std::fs::read(dir.join("c.pfm")).unwrap();
+        (stats.frame_hash, stats.records_hash, stats.ic_samples, pfm)
+    };
+    let first = run(1, wfic_render::Pool::Scoped);
+    assert!(
+        first.2 > 0 && first.1.is_some(),
+        "records computed and hashed"
+    );
+    for (threads, pool) in [
+        (2, wfic_render::Pool::Scoped),
+        (3, wfic_render::Pool::Scoped),
+        (8, wfic_render::Pool::Scoped),
+        (64, wfic_render::Pool::Scoped),
+        (2, wfic_render::Pool::Rayon),
+    ] {
+        assert!(run(threads, pool) == first, "{threads} threads on {pool:?}");
+    }
+
+    let mut discard = args(&dir);
+    (discard.deterministic, discard.scheme) = (true, Scheme::WfDiscard);
+    let e = run_render(discard).unwrap_err();
+    assert_eq!(e.exit_code(), 2);
+    assert!(e.to_string().contains("--scheme wf-discard"), "{e}");
+    let mut distributed = args(&dir);
+    (distributed.deterministic, distributed.distributed) = (true, true);
+    let e = run_render(distributed).unwrap_err();
+    assert_eq!(e.exit_code(), 2);
+    assert!(
+        e.to_string()
+            .contains("--deterministic is not available with --distributed"),
+        "{e}"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -49,6 +49,18 @@ impl Image {
         &self.pixels
     }
 
+    /// A 64-bit FNV-1a hash of the image's size and every channel's bit pattern, row-major, as 16
+    /// hexadecimal digits: two images hash alike when they are bit-identical (and, but for a
+    /// collision, only then), so runs can be compared by their statistics.
+    pub fn hash(&self) -> String {
+        let words = [self.width, self.height].into_iter().chain(
+            self.pixels
+                .iter()
+                .flat_map(|p| p.to_array().map(f32::to_bits)),
+        );
+        format!("{:016x}", fnv1a(words))
+    }
+
     /// Mean of the pixels.
     pub fn mean(&self) -> Vec3 {
         self.pixels.iter().copied().sum::<Vec3>() / self.pixels.len().max(1) as f32
@@ -301,6 +313,17 @@ pub fn worker_colour(i: u32) -> Vec3 {
         Vec3::new(1.0, 1.0, 1.0),
     ];
     PALETTE[(i % 8) as usize]
+}
+
+/// FNV-1a (64-bit) over the little-endian bytes of `words`.
+pub fn fnv1a(words: impl IntoIterator<Item = u32>) -> u64 {
+    const PRIME: u64 = 0x0000_0100_0000_01b3;
+    words
+        .into_iter()
+        .flat_map(u32::to_le_bytes)
+        .fold(0xcbf2_9ce4_8422_2325, |h, byte| {
+            (h ^ u64::from(byte)).wrapping_mul(PRIME)
+        })
 }
 
 #[cfg(test)]

@@ -579,42 +579,82 @@ impl<'a> PixelIntegrator<'a> {
             &mut rng,
             &mut counters.rays,
         );
+        let stream = sampler::for_sample(self.settings.seed, px, py, sample, Stream::Hemisphere);
+        let indirect = self.indirect(x, n, (hit.t, dir), stream, handle, counters);
+        radiance += hit.material.albedo * (direct + indirect) * (1.0 / PI);
+        radiance
+    }
+}
+
+impl PixelIntegrator<'_> {
+    /// The indirect irradiance at `x` with normal `n`, seen along `dir` at distance `t`: a cache
+    /// lookup; on a miss, a hemisphere estimate from `rng`, its gradients limited, inserted as a
+    /// record (stored, discarded by WF `Discard`, not cached by the reference, or refused: the
+    /// estimate is returned either way; a refusal is counted by the handle, `rejected`).
+    fn indirect<H: CacheHandle>(
+        &self,
+        x: Vec3,
+        n: Vec3,
+        (t, dir): (f32, Vec3),
+        mut rng: sampler::Rng,
+        handle: &mut H,
+        counters: &mut SampleCounters,
+    ) -> Vec3 {
         // Without smoothing every record a lookup finds weighs above 1 / a; with it, the pixel
         // takes the wider average only where some record is valid at `a` itself, so the records
         // computed are the ones Ward's cache computes.
         let found = handle
             .lookup(x, n)
             .filter(|f| f.max_weight > self.reuse_weight);
-        let indirect = match found {
-            Some(found) => found.irradiance,
-            None => {
-                let mut rng =
-                    sampler::for_sample(self.settings.seed, px, py, sample, Stream::Hemisphere);
-                let start = Instant::now();
-                let s = sample_irradiance(
-                    scene,
-                    x,
-                    n,
-                    self.strata,
-                    self.eps,
-                    &mut rng,
-                    &mut counters.rays,
-                );
-                counters.hemisphere += start.elapsed();
-                counters.ic_samples += 1;
-                let footprint = self.view.footprint(hit.t, dir);
-                let (r_min, r_max) = self.settings.radius_bounds(footprint, self.diagonal);
-                let (radius, grad_t) = limit_gradient(&s, r_min, r_max, self.accuracy);
-                let record =
-                    Record::new(x, n, s.irradiance, radius).with_gradients(grad_t, s.grad_r);
-                // Stored, discarded (WF `Discard`), not cached (the reference) or refused, the
-                // estimate is used for this pixel; a refusal is counted by the handle (`rejected`).
-                let _ = handle.insert(record);
-                s.irradiance
-            }
-        };
-        radiance += hit.material.albedo * (direct + indirect) * (1.0 / PI);
-        radiance
+        if let Some(found) = found {
+            return found.irradiance;
+        }
+        let start = Instant::now();
+        let s = sample_irradiance(
+            self.scene,
+            x,
+            n,
+            self.strata,
+            self.eps,
+            &mut rng,
+            &mut counters.rays,
+        );
+        counters.hemisphere += start.elapsed();
+        counters.ic_samples += 1;
+        let footprint = self.view.footprint(t, dir);
+        let (r_min, r_max) = self.settings.radius_bounds(footprint, self.diagonal);
+        let (radius, grad_t) = limit_gradient(&s, r_min, r_max, self.accuracy);
+        let record = Record::new(x, n, s.irradiance, radius).with_gradients(grad_t, s.grad_r);
+        let _ = handle.insert(record);
+        s.irradiance
+    }
+
+    /// A pretrace of pixel `(px, py)` in pass `pass` of a deterministic frame: the primary hit
+    /// of the ray through the pixel's centre gets its irradiance from the cache, or a new record
+    /// computed from a stream of its own (the seed, the pixel and the pass). Nothing is shaded;
+    /// the records seed the later passes.
+    pub fn pretrace<H: CacheHandle>(
+        &self,
+        (px, py): (u32, u32),
+        pass: u32,
+        handle: &mut H,
+        counters: &mut SampleCounters,
+    ) {
+        let dir = self.view.direction(px as f32 + 0.5, py as f32 + 0.5);
+        counters.rays.primary += 1;
+        if let Some(hit) = self.scene.intersect(self.view.eye(), dir, f32::INFINITY) {
+            let x = self.view.eye() + dir * hit.t;
+            let n = facing(hit.normal, dir);
+            // Sample numbers from the top down: no pixel shades that many samples.
+            let stream = sampler::for_sample(
+                self.settings.seed,
+                px,
+                py,
+                u32::MAX - pass,
+                Stream::Hemisphere,
+            );
+            self.indirect(x, n, (hit.t, dir), stream, handle, counters);
+        }
     }
 }
 

@@ -17,6 +17,7 @@
 //! * [`film`] — the HDR image, PNG/PFM output, the record overlay, relative RMSE;
 //! * [`work`] — the work sources (an atomic counter, a fed queue) and the one worker loop every
 //!   render runs;
+//! * [`deterministic`] — frames whose image and records do not depend on the schedule;
 //! * [`parallel`] — a frame's tiles shaded by the workers of one cache frame, on scoped threads
 //!   or a rayon pool, and the reference grid;
 //! * `distributed` (feature `mpi`) — one frame over the ranks of an MPI job;
@@ -54,6 +55,7 @@ for frame in 0..4 {
 
 pub mod camera;
 pub mod colour;
+pub mod deterministic;
 #[cfg(feature = "mpi")]
 pub mod distributed;
 pub mod film;

@@ -62,7 +62,8 @@ pub fn render_frame<C: IrradianceCache>(
 
 /// [`render_frame`], with worker 0 first removing what `removal` selects through its handle
 /// ([`wfic::cache::CacheHandle::remove`]), while the other workers already shade: for a scene
-/// that changed since the cache's last frame. The frame's time includes the removal; the
+/// that changed since the cache's last frame. With `settings.deterministic` the frame is
+/// [`crate::deterministic::render`]'s, which removes before its first pass. The frame's time includes the removal; the
 /// statistics count what it took ([`FrameStats::removed`]).
 pub fn render_frame_removing<C: IrradianceCache>(
     scene: &Scene,
@@ -72,6 +73,9 @@ pub fn render_frame_removing<C: IrradianceCache>(
     threads: usize,
     removal: Option<&Selection>,
 ) -> FrameResult {
+    if settings.deterministic {
+        return crate::deterministic::render(scene, camera, settings, cache, threads, removal);
+    }
     let start = Instant::now();
     let threads = threads.max(1);
     let scheme = cache.scheme().name();
@@ -122,6 +126,7 @@ pub fn render_frame_removing<C: IrradianceCache>(
         cache.stats().records,
     );
     stats.worker_seconds = worker_seconds;
+    stats.frame_hash = image.hash();
     FrameResult { image, stats }
 }
 

@@ -76,6 +76,9 @@ pub struct RenderSettings {
     pub quiet: bool,
     /// Where the workers run.
     pub pool: Pool,
+    /// Render deterministic frames ([`crate::deterministic`]): the same image and records at any
+    /// thread count and on either pool.
+    pub deterministic: bool,
 }
 
 impl RenderSettings {
@@ -97,6 +100,7 @@ impl RenderSettings {
             seed: 0x5eed,
             quiet: true,
             pool: Pool::Scoped,
+            deterministic: false,
         }
     }
 

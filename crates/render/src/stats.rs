@@ -79,8 +79,17 @@ pub struct FrameStats {
     /// Records in the cache after the frame.
     pub cache_records: usize,
     /// Each worker's busy time: from its first look at the tile queue to finding it empty
-    /// (tiles shaded, nothing else), in worker order.
+    /// (tiles shaded, nothing else), in worker order (empty for a deterministic frame, whose
+    /// tiles are not tied to workers).
     pub worker_seconds: Vec<f64>,
+    /// The image's hash ([`crate::Image::hash`]): equal for bit-identical images.
+    #[serde(default)]
+    pub frame_hash: String,
+    /// For a deterministic frame, the hash of the cache's records after it
+    /// ([`crate::deterministic::records_hash`]): ids, positions, normals, irradiances, radii and
+    /// gradients, in id order.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub records_hash: Option<String>,
 }
 
 impl FrameStats {
@@ -122,6 +131,8 @@ impl FrameStats {
             removed: w.removed,
             cache_records,
             worker_seconds: Vec::new(),
+            frame_hash: String::new(),
+            records_hash: None,
         }
     }
 

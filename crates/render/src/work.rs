@@ -153,15 +153,25 @@ pub struct Tiles {
 impl Tiles {
     /// The tiles of a `settings.width` x `settings.height` image.
     pub fn new(settings: &RenderSettings) -> Self {
-        let size = settings.tile_size.max(1);
+        Self::sized(settings, settings.tile_size)
+    }
+
+    /// The tiles of side `size` (0 counts as 1) of a `settings.width` x `settings.height` image.
+    pub fn sized(settings: &RenderSettings, size: u32) -> Self {
+        let size = size.max(1);
         let across = settings.width.div_ceil(size);
         Self {
             size,
             width: settings.width,
             height: settings.height,
             across,
-            count: (across * settings.height.div_ceil(size)) as usize,
+            count: across as usize * settings.height.div_ceil(size) as usize,
         }
+    }
+
+    /// The side of a tile.
+    pub fn size(&self) -> u32 {
+        self.size
     }
 
     /// The pixel rectangle `(x0, y0, x1, y1)` of tile `tile` (`x1`, `y1` exclusive).
