@@ -1,12 +1,13 @@
 //! The paper's experiments and the `wfic` command line: each experiment ([`table1`],
-//! [`animation`], [`dynamic`], [`distributed`], [`radiance`]) is a schedule, an analysis and a
-//! report on one [`harness`]; [`plot`] draws, [`paper`] holds the paper's Table 1. What each
+//! [`animation`], [`dynamic`], [`distributed`], [`radiance`], [`deterministic`]) is a schedule,
+//! an analysis and a report on one [`harness`]; [`plot`] draws, [`paper`] holds the paper's Table 1. What each
 //! runs and how to read it: `docs/experiments.md`.
 
 #![cfg(not(checker))]
 
 pub mod animation;
 pub mod cli;
+pub mod deterministic;
 pub mod distributed;
 pub mod dynamic;
 pub mod harness;

@@ -1,6 +1,7 @@
 //! `wfic reproduce ...` and `wfic compare ...`: arguments, progress, output.
 
 use crate::animation::{self, AnimationConfig};
+use crate::deterministic::{self, DeterministicConfig};
 use crate::distributed::{self, DistributedConfig};
 use crate::dynamic::{self, DynamicConfig};
 use crate::harness::measure::Progress;
@@ -31,6 +32,38 @@ pub enum ReproduceCommand {
     /// One frame over MPI ranks against one process and Radiance's `rtrace -n P` (needs
     /// `--features mpi` and OpenMPI; distributed.md, .csv, .png, .svg).
     Distributed(DistributedArgs),
+    /// Deterministic frames against ordinary WF frames: time, records, error, and their hashes
+    /// at every thread count (deterministic.md, .csv).
+    Deterministic(DeterministicArgs),
+}
+
+/// Arguments of `wfic reproduce deterministic`.
+#[derive(Clone, Debug, clap::Args)]
+pub struct DeterministicArgs {
+    /// 128x128, 1 primary ray, at most 128 rays a record, 3 seeds: a few minutes on 2 cores.
+    #[arg(long)]
+    pub quick: bool,
+    /// Scenes (default: all five).
+    #[arg(long, value_delimiter = ',')]
+    pub scenes: Option<Vec<String>>,
+    /// Thread counts.
+    #[arg(long, value_delimiter = ',', default_value = "1,2")]
+    pub threads: Vec<usize>,
+    /// Seeds (runs) per scene and thread count (default 3 with --quick, 7 without).
+    #[arg(long)]
+    pub runs: Option<usize>,
+    /// The brute-force references are traced at one pixel in STRIDE x STRIDE.
+    #[arg(long, default_value_t = 2)]
+    pub stride: u32,
+    /// Image size (default 256, quick 128).
+    #[command(flatten)]
+    pub size: SizeArgs,
+    /// Sampling.
+    #[command(flatten)]
+    pub sampling: SamplingArgs,
+    /// Output.
+    #[command(flatten)]
+    pub output: OutputArgs,
 }
 
 /// Where the results go, and whether progress is shown: every experiment's.
@@ -399,6 +432,39 @@ fn animation(a: AnimationArgs, machine: &Machine) -> Result<(), String> {
     Ok(())
 }
 
+fn deterministic(a: DeterministicArgs, machine: &Machine) -> Result<(), String> {
+    let (w, h) = a.size.get(if a.quick { 128 } else { 256 })?;
+    let mut sampling = a.sampling.clone();
+    if a.quick {
+        sampling.spp = 1;
+        sampling.rays_per_record = sampling.rays_per_record.min(128);
+    }
+    if a.stride == 0 {
+        return Err("--stride must be at least 1".to_owned());
+    }
+    let config = DeterministicConfig {
+        scenes: a
+            .scenes
+            .unwrap_or(wfic_render::scenes::NAMES.map(str::to_owned).to_vec()),
+        threads: a.threads,
+        runs: or_quick(a.runs, a.quick, (3, 7)),
+        settings: sampling.settings((w, h))?,
+        stride: a.stride,
+    };
+    println!("{}", machine.banner(&config.threads));
+    let progress = Progress::new(config.frames(), a.output.quiet).echo(a.output.quiet);
+    let start = std::time::Instant::now();
+    let d = progress.run(|p| deterministic::run(&config, machine, p))?;
+    d.write(&a.output.out_dir, &command_line())?;
+    print_checks(&d.checks());
+    println!(
+        "wrote {}/deterministic.md, deterministic.csv ({:.0} s)",
+        a.output.out_dir.display(),
+        start.elapsed().as_secs_f64()
+    );
+    Ok(())
+}
+
 /// Runs `wfic reproduce ...`.
 pub fn run(command: ReproduceCommand) -> Result<(), String> {
     let machine = Machine::detect();
@@ -407,6 +473,7 @@ pub fn run(command: ReproduceCommand) -> Result<(), String> {
         ReproduceCommand::Distributed(a) => distributed(a, &machine),
         ReproduceCommand::Dynamic(a) => dynamic(a, &machine),
         ReproduceCommand::Animation(a) => animation(a, &machine),
+        ReproduceCommand::Deterministic(a) => deterministic(a, &machine),
     }
 }
 

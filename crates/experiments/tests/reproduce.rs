@@ -1,4 +1,4 @@
-//! `wfic reproduce table1` and `wfic reproduce animation` through the binary, on tiny images.
+//! `wfic reproduce table1`, `animation` and `deterministic` through the binary, on tiny images.
 #![cfg(not(checker))]
 
 use std::path::PathBuf;
@@ -129,6 +129,31 @@ fn bad_input_is_refused_with_exit_code_2() {
         vec!["reproduce", "animation", "--spp", "0", "--out-dir", d],
         vec!["reproduce", "animation", "--frames", "0", "--out-dir", d],
         vec!["reproduce", "animation", "--scheme", "none", "--out-dir", d],
+        vec!["reproduce", "deterministic", "--runs", "0", "--out-dir", d],
+        vec![
+            "reproduce",
+            "deterministic",
+            "--threads",
+            "0",
+            "--out-dir",
+            d,
+        ],
+        vec![
+            "reproduce",
+            "deterministic",
+            "--stride",
+            "0",
+            "--out-dir",
+            d,
+        ],
+        vec![
+            "reproduce",
+            "deterministic",
+            "--scenes",
+            "atrium",
+            "--out-dir",
+            d,
+        ],
     ] {
         let out = wfic(&args);
         assert_eq!(out.status.code(), Some(2), "{args:?}");
@@ -139,5 +164,56 @@ fn bad_input_is_refused_with_exit_code_2() {
     let out = wfic(&["reproduce", "table1", "--spp", "0", "--out-dir", d]);
     assert!(String::from_utf8_lossy(&out.stderr).contains("--spp must be at least 1"));
     assert!(!dir.join("table1.md").exists());
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn deterministic_writes_its_page_and_finds_every_frame_hashed_alike() {
+    let dir = temp_dir("deterministic");
+    let out = wfic(&[
+        "reproduce",
+        "deterministic",
+        "--quick",
+        "--scenes",
+        "cornell",
+        "--threads",
+        "1,3",
+        "--runs",
+        "2",
+        "--width",
+        "32",
+        "--rays-per-record",
+        "16",
+        "--quiet",
+        "--out-dir",
+        dir.to_str().unwrap(),
+    ]);
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{stdout}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(
+        stdout.contains("yes  deterministic frames bit-identical at [1, 3] threads"),
+        "{stdout}"
+    );
+    let md = std::fs::read_to_string(dir.join("deterministic.md")).unwrap();
+    assert!(md.contains("command: `wfic reproduce deterministic") && md.contains("| cornell | 3"));
+    let csv = std::fs::read_to_string(dir.join("deterministic.csv")).unwrap();
+    // A header and two seeds x two thread counts x two modes.
+    assert_eq!(csv.lines().count(), 1 + 8, "{csv}");
+    // The deterministic frames of a seed share one hash; the CSV holds them.
+    let hashes = |seed: &str| -> Vec<String> {
+        (csv.lines().skip(1))
+            .map(|l| l.split(',').collect::<Vec<_>>())
+            .filter(|f| f[1] == seed && f[5] == "true")
+            .map(|f| f[12].to_owned())
+            .collect()
+    };
+    for seed in ["0", "1"] {
+        let h = hashes(seed);
+        assert!(h.len() == 2 && h[0] == h[1] && h[0].len() == 16, "{h:?}");
+    }
     std::fs::remove_dir_all(&dir).ok();
 }

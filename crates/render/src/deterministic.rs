@@ -5,9 +5,9 @@
 //! A frame is a few passes, each a frame of the cache ([`wfic::cache::deterministic`]):
 //!
 //! 1. **Pretraces** at [`PRETRACE_STRIDES`]: the pixels of a coarse grid (one in `s` x `s`),
-//!    in blocks of `s` tiles a side, each look up their primary hit and, on a miss, compute and
-//!    insert a record ([`PixelIntegrator::pretrace`]). Coarse to fine, as Radiance's overture
-//!    pass and POV-Ray's pretrace fill the cache before the image.
+//!    in blocks of up to `s` tiles a side, each look up their primary hit and, on a miss, compute
+//!    and insert a record ([`PixelIntegrator::pretrace`]), as Radiance's overture pass and
+//!    POV-Ray's pretrace fill the cache before the image.
 //! 2. **The frame**: every pixel of every tile, shaded as in an ordinary frame.
 //!
 //! In each pass a block's lookups use the records of the earlier passes (and earlier frames) and
@@ -36,8 +36,9 @@ use wfic::cache::deterministic::MAX_TILES;
 use wfic::cache::{Frame, FrameReport, IrradianceCache, Scheme, TileHandle};
 use wfic::ic::{Record, Selection};
 
-/// The pretrace passes' grid strides, coarse to fine.
-pub const PRETRACE_STRIDES: [u32; 2] = [8, 3];
+/// The pretrace passes' grid strides, coarse to fine: one pass at one pixel in 4 x 4
+/// (`docs/tried-and-dropped.md` has the schedules measured against it).
+pub const PRETRACE_STRIDES: [u32; 1] = [4];
 
 /// The side of a deterministic frame's tiles: the settings' tile size, doubled until the image
 /// has at most [`MAX_TILES`] tiles (a tile's number is a worker id, 16 bits of a record id).
@@ -47,6 +48,15 @@ pub fn tile_side(settings: &RenderSettings) -> u32 {
         side *= 2;
     }
     side
+}
+
+/// The side of a pretrace pass's blocks at `stride`: `stride` tiles a side (as many grid pixels
+/// a block as a tile has pixels), but no more than an eighth of the image's shorter side (at
+/// least one tile), so that a pass has some 64 blocks to spread over the threads. A function of
+/// the image and tile size only, never of the thread count.
+fn block_side(settings: &RenderSettings, side: u32, stride: u32) -> u32 {
+    let eighth = settings.width.min(settings.height) / 8;
+    side.saturating_mul(stride).min(eighth).max(side)
 }
 
 /// Tiles of a pretrace pass: blocks of `side` pixels, each shading only its pixels on a `stride`
@@ -152,7 +162,7 @@ pub fn render<C: IrradianceCache>(
     };
     for (pass, &stride) in strides.iter().enumerate() {
         let blocks = GridTiles {
-            tiles: Tiles::sized(settings, side.saturating_mul(stride)),
+            tiles: Tiles::sized(settings, block_side(settings, side, stride)),
             stride,
         };
         let frame = cache.frame();
@@ -165,6 +175,7 @@ pub fn render<C: IrradianceCache>(
         done.into_iter().for_each(|c| counters += c);
         add(&mut report, frame.close());
     }
+    let pretrace = (start.elapsed().as_secs_f64(), counters.ic_samples);
     let tiles = Tiles::sized(settings, side);
     let frame = cache.frame();
     let done = run_tiles(&frame, pool.as_ref(), threads, tiles.count(), |h, t| {
@@ -191,6 +202,7 @@ pub fn render<C: IrradianceCache>(
         records.len(),
     );
     stats.removed += removed as u64;
+    (stats.pretrace_seconds, stats.pretrace_records) = pretrace;
     stats.frame_hash = image.hash();
     stats.records_hash = Some(records_hash(&records));
     FrameResult { image, stats }

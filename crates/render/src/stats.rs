@@ -82,6 +82,14 @@ pub struct FrameStats {
     /// (tiles shaded, nothing else), in worker order (empty for a deterministic frame, whose
     /// tiles are not tied to workers).
     pub worker_seconds: Vec<f64>,
+    /// A deterministic frame's pretrace passes: their seconds (from the frame's start, a removal
+    /// before them included), and the records they computed
+    /// (part of `ic_samples`). 0 for an ordinary frame.
+    #[serde(default)]
+    pub pretrace_seconds: f64,
+    /// See `pretrace_seconds`.
+    #[serde(default)]
+    pub pretrace_records: u64,
     /// The image's hash ([`crate::Image::hash`]): equal for bit-identical images.
     #[serde(default)]
     pub frame_hash: String,
@@ -131,6 +139,8 @@ impl FrameStats {
             removed: w.removed,
             cache_records,
             worker_seconds: Vec::new(),
+            pretrace_seconds: 0.0,
+            pretrace_records: 0,
             frame_hash: String::new(),
             records_hash: None,
         }
