@@ -11,6 +11,8 @@
 #                                                           (the lines of src/cache/*.rs, src/ic or
 #                                                            src/research/lincheck that removal changed: the
 #                                                            diff from $removal_base, --in-diff)
+#   bash verify/mutants.sh deterministic                    (the lines of src/cache and src/ic
+#                                                            that deterministic frames changed)
 #   bash verify/mutants.sh cache-work                       (the lines of src/cache/*.rs that
 #                                                            counting removal's work changed)
 #   bash verify/mutants.sh render-tiles|render-distributed  (the renderer's tile loop and work
@@ -140,6 +142,8 @@ PY
 removal_base=22179d0
 # The commit before removal's work was counted (issue 39): cache-work mutates the lines changed since.
 work_base=ac128b0
+# The commit before deterministic frames (issue 40): deterministic mutates the lines changed since.
+deterministic_base=b4ee339
 # diff_of SCOPE: the --in-diff options of a *-removal scope (the diff is kept beside its results).
 diff_of() {
     local scope=$1 out="$root/results/mutants/$1"
@@ -148,6 +152,7 @@ diff_of() {
         ic-removal) git diff "$removal_base" -- src/ic > "$out/diff.patch" ;;
         lincheck-removal) git diff "$removal_base" -- src/research/lincheck > "$out/diff.patch" ;;
         cache-work) git diff "$work_base" -- 'src/cache/*.rs' > "$out/diff.patch" ;;
+        deterministic) git diff "$deterministic_base" -- src/cache src/ic > "$out/diff.patch" ;;
         *) return 0 ;;
     esac
     echo --in-diff "$out/diff.patch"
@@ -164,6 +169,7 @@ filter_of() {
         wf-removal) echo 'src/cache/wf/**' ;;
         cache-lookup) echo 'src/cache/{octree,sequential}.rs' ;;
         cache-removal | cache-work) echo 'src/cache/*.rs' ;;
+        deterministic) echo 'src/**' ;;
         ic | ic-removal) echo 'src/ic/**' ;;
         lincheck | lincheck-removal) echo 'src/research/lincheck/**' ;;
         render-tiles) echo 'crates/render/src/parallel.rs' ;;
@@ -246,6 +252,16 @@ run_scope() {
             stage "$scope" no -f 'src/cache/*.rs' "${d[@]}" --no-default-features \
                 $(targets agreement robustness leaks wf_api lookup_work lincheck removal lincheck_removal)
             stage "$scope" no -f 'src/cache/*.rs' "${d[@]}" --no-default-features $(targets stress removal_stress)
+            ;;
+        deterministic)
+            # The lines deterministic frames added or changed in src/cache and src/ic (the
+            # visibility rule, the ordered sum, the tile runner, the ledger's set, every
+            # backend's lookup_visible): the unit tests, then the property and the agreement
+            # suites, then the loom models.
+            local f=(-f 'src/**' "${d[@]}")
+            stage "$scope" yes "${f[@]}" --features rayon --cargo-arg=--lib
+            stage "$scope" no "${f[@]}" --features rayon $(targets deterministic agreement robustness)
+            stage "$scope" no "${f[@]}" --features loom $(targets loom_deterministic loom_wf)
             ;;
         ic | ic-removal)
             # The maths' unit tests also run under the checker features, where the crate is small.
