@@ -167,13 +167,29 @@ impl<C: IrradianceCache> Frame<'_, C> {
         F: Fn(&mut TileHandle<C::Handle<'f>>, usize) -> T + Sync,
     {
         assert!(tiles <= MAX_TILES, "{tiles} tiles: at most {MAX_TILES}");
+        let all: Vec<usize> = (0..tiles).collect();
+        self.run_tile_list(threads, &all, work)
+    }
+
+    /// [`Frame::run_tiles`] over the tiles `tiles` lists only (distinct numbers below
+    /// [`MAX_TILES`]): for a renderer that shares a frame's tiles between processes, each running
+    /// its own. Returns the results in the list's order.
+    ///
+    /// # Panics
+    /// As [`Frame::run_tiles`], and if a number repeats or is not below [`MAX_TILES`].
+    #[cfg(not(checker))]
+    pub fn run_tile_list<'f, T, F>(&'f self, threads: usize, tiles: &[usize], work: F) -> Vec<T>
+    where
+        T: Send,
+        F: Fn(&mut TileHandle<C::Handle<'f>>, usize) -> T + Sync,
+    {
         assert!(threads > 0, "a frame needs at least one worker thread");
         let next = crate::sync::AtomicUsize::new(0);
         let take = || {
-            // Relaxed: the counter only hands out distinct tile numbers, which `fetch_add`'s
-            // atomicity guarantees; what a tile computed comes back through the join.
-            let tile = next.fetch_add(1, crate::sync::Ordering::Relaxed);
-            (tile < tiles).then_some(tile)
+            // Relaxed: the counter only hands out distinct places in the list, which
+            // `fetch_add`'s atomicity guarantees; what a tile computed comes back through the join.
+            let at = next.fetch_add(1, crate::sync::Ordering::Relaxed);
+            (at < tiles.len()).then_some(at)
         };
         let (work, take) = (&work, &take);
         let outputs = crate::sync::thread::scope(|s| {
@@ -181,8 +197,8 @@ impl<C: IrradianceCache> Frame<'_, C> {
                 .map(|_| {
                     s.spawn(move || {
                         let mut done = Vec::new();
-                        while let Some(tile) = take() {
-                            done.push((tile, self.run_tile(tile, work)));
+                        while let Some(at) = take() {
+                            done.push((at, self.run_tile(tiles[at], work)));
                         }
                         done
                     })
@@ -202,7 +218,7 @@ impl<C: IrradianceCache> Frame<'_, C> {
             }
             out
         });
-        in_tile_order(tiles, outputs.into_iter())
+        in_list_order(tiles.len(), outputs.into_iter())
     }
 
     /// [`Frame::run_tiles`] on the threads of `pool`: every tile is a task of the pool (work
@@ -245,12 +261,13 @@ impl<C: IrradianceCache> Frame<'_, C> {
     }
 }
 
-/// The results of tiles `0..tiles`, given as `(tile, result)` in any order, in tile order.
+/// The results of the `n` places of a tile list, given as `(place, result)` in any order, in
+/// the list's order.
 #[cfg(not(checker))]
-fn in_tile_order<T>(tiles: usize, done: impl Iterator<Item = (usize, T)>) -> Vec<T> {
-    let mut slots: Vec<Option<T>> = (0..tiles).map(|_| None).collect();
-    for (tile, value) in done {
-        slots[tile] = Some(value);
+fn in_list_order<T>(n: usize, done: impl Iterator<Item = (usize, T)>) -> Vec<T> {
+    let mut slots: Vec<Option<T>> = (0..n).map(|_| None).collect();
+    for (at, value) in done {
+        slots[at] = Some(value);
     }
     slots
         .into_iter()
@@ -536,5 +553,73 @@ mod tests {
             .all(|(i, &(w, t))| w == i && t == i));
         let report = frame.close();
         assert_eq!(report.workers.lookups, 0);
+    }
+
+    /// Two caches split each frame's tiles (even and odd, as two processes would) and, before
+    /// closing the frame, insert each other's new records through the handles of the tiles that
+    /// made them, in their order: every record comes back with the id it had, and both caches
+    /// end each frame with the one-cache run's answers and records.
+    #[test]
+    fn tiles_split_between_caches_and_exchanged_give_the_one_cache_frames() {
+        let one = Scheme::Wf.build(config(), Tiles(Run::Threads(2)));
+        let mut caches = [
+            crate::cache::WaitFree::adopt(config()),
+            crate::cache::WaitFree::adopt(config()),
+        ];
+        let mut seen = vec![Vec::new(); 2 * TILES];
+        for frame in 0..2 {
+            let [a, b] = &mut caches;
+            let (fa, fb) = (a.frame(), b.frame());
+            let mut made = [Vec::new(), Vec::new()];
+            for (k, f) in [&fa, &fb].into_iter().enumerate() {
+                let mine: Vec<usize> = (k..TILES).step_by(2).collect();
+                let done = f.run_tile_list(2, &mine, |h, t| {
+                    let before = h.stats().stored;
+                    let answers = tile_work(h, t);
+                    (answers, h.stats().stored - before)
+                });
+                for (&t, (answers, _)) in mine.iter().zip(&done) {
+                    seen[frame * TILES + t] = answers.clone();
+                }
+                made[k] = mine;
+            }
+            // Each cache's records of this frame, by tile, into the other.
+            let records = |f: &Frame<'_, crate::cache::WaitFree>| {
+                let mut out = Vec::new();
+                let mut h = f.handle_for(WorkerId::new(WorkerId::MAX));
+                for x in 0..400 {
+                    h.valid_records(
+                        Vec3::new(0.5 + 0.03 * x as f32, 5.0, 5.0),
+                        Vec3::Z,
+                        &mut out,
+                    );
+                }
+                out.retain(|r| r.id().frame() == h.frame());
+                out.sort_unstable_by_key(Record::id);
+                out.dedup_by_key(|r| r.id());
+                out
+            };
+            let (ra, rb) = (records(&fa), records(&fb));
+            for (from, into, tiles) in [(&ra, &fb, &made[0]), (&rb, &fa, &made[1])] {
+                for &t in tiles {
+                    let mut h = into.handle_for(WorkerId::new(t as u32));
+                    for r in from
+                        .iter()
+                        .filter(|r| r.id().worker().index() as usize == t)
+                    {
+                        let back = h.insert(*r).unwrap();
+                        assert_eq!(back, Inserted::Stored(r.id()), "the same id again");
+                    }
+                }
+            }
+            drop((fa, fb));
+        }
+        assert_eq!(seen, one.0, "the answers of the one-cache run");
+        for cache in &mut caches {
+            let mut records: Vec<u64> = cache.snapshot().iter().map(|r| r.id().get()).collect();
+            records.sort_unstable();
+            let ids: Vec<u64> = one.1.iter().map(|(id, _)| *id).collect();
+            assert_eq!(records, ids, "the one-cache run's records");
+        }
     }
 }

@@ -129,7 +129,10 @@ pub struct RenderArgs {
     #[arg(long)]
     pub deterministic: bool,
     /// Render over MPI: run under `mpirun -np R`; the ranks split the tiles and exchange new
-    /// records; rank 0 writes the outputs (needs the `mpi` feature; scheme `wf`).
+    /// records; rank 0 writes the outputs (needs the `mpi` feature; scheme `wf`). With
+    /// --deterministic the tiles are dealt round robin and the records exchanged once a pass
+    /// (--batch-records and --batch-ms do not apply): the image is the single process's, bit for
+    /// bit, at any rank count.
     #[arg(long)]
     pub distributed: bool,
     /// With --distributed: a rank starts an exchange round once it has this many new records.
@@ -261,19 +264,19 @@ pub fn settings_from(args: &RenderArgs) -> Result<RenderSettings, RenderError> {
             args.smoothing
         ));
     }
+    if args.deterministic && args.no_share {
+        return usage(
+            "--deterministic cannot run with --no-share: its ranks exchange every pass's records, \
+             which is what makes the image the single process's"
+                .to_owned(),
+        );
+    }
     if args.deterministic && !args.scheme.is_deterministic() {
         return usage(format!(
             "--deterministic cannot run --scheme {}: it drops a record whose insert loses a race, \
              so the records kept depend on the schedule (use wf)",
             args.scheme
         ));
-    }
-    if args.deterministic && args.distributed {
-        return usage(
-            "--deterministic is not available with --distributed yet: the ranks' exchange \
-             rounds are not aligned with the passes, so the image would depend on the schedule"
-                .to_owned(),
-        );
     }
     let mut settings = RenderSettings::new(args.width, args.height)
         .accuracy(args.accuracy)
@@ -290,7 +293,7 @@ pub fn settings_from(args: &RenderArgs) -> Result<RenderSettings, RenderError> {
 
 /// Runs `wfic render`.
 pub fn run_render(args: RenderArgs) -> Result<(), RenderError> {
-    if args.distributed && !args.deterministic {
+    if args.distributed {
         return run_distributed(args);
     }
     let settings = settings_from(&args)?;

@@ -33,7 +33,7 @@ use super::FrameResult;
 use glam::Vec3;
 use std::time::Instant;
 use wfic::cache::deterministic::MAX_TILES;
-use wfic::cache::{Frame, FrameReport, IrradianceCache, Scheme, TileHandle};
+use wfic::cache::{CacheHandle, Frame, FrameReport, IrradianceCache, Scheme, TileHandle};
 use wfic::ic::{Record, Selection};
 
 /// The pretrace passes' grid strides, coarse to fine: one pass at one pixel in 4 x 4
@@ -61,7 +61,7 @@ fn block_side(settings: &RenderSettings, side: u32, stride: u32) -> u32 {
 
 /// Tiles of a pretrace pass: blocks of `side` pixels, each shading only its pixels on a `stride`
 /// x `stride` grid (`x % stride == stride / 2`, likewise `y`), row by row.
-struct GridTiles {
+pub struct GridTiles {
     tiles: Tiles,
     stride: u32,
 }
@@ -121,6 +121,75 @@ fn add(report: &mut FrameReport, other: FrameReport) {
     report.merge += other.merge;
 }
 
+/// One pass of a deterministic frame: its tiles, and what shading one of them does.
+pub enum Pass {
+    /// Pretrace pass `number` over the grid pixels of its blocks.
+    Pretrace {
+        /// The pass's number among the pretraces (part of its random streams).
+        number: u32,
+        /// Its blocks.
+        blocks: GridTiles,
+    },
+    /// The frame's own pass: every pixel of every tile.
+    Frame(Tiles),
+}
+
+impl Pass {
+    /// The passes of a deterministic frame of `settings` with a cache of `scheme`: the pretraces
+    /// (none for [`Scheme::None`], which caches nothing), then the frame.
+    pub fn all(settings: &RenderSettings, scheme: Scheme) -> Vec<Pass> {
+        let side = tile_side(settings);
+        let strides: &[u32] = if scheme == Scheme::None {
+            &[]
+        } else {
+            &PRETRACE_STRIDES
+        };
+        let mut passes: Vec<Pass> = (strides.iter().enumerate())
+            .map(|(number, &stride)| Pass::Pretrace {
+                number: u32::try_from(number).unwrap_or(u32::MAX),
+                blocks: GridTiles {
+                    tiles: Tiles::sized(settings, block_side(settings, side, stride)),
+                    stride,
+                },
+            })
+            .collect();
+        passes.push(Pass::Frame(Tiles::sized(settings, side)));
+        passes
+    }
+
+    /// How many tiles the pass has.
+    pub fn count(&self) -> usize {
+        match self {
+            Pass::Pretrace { blocks, .. } => blocks.count(),
+            Pass::Frame(tiles) => tiles.count(),
+        }
+    }
+
+    /// Shades tile `tile` of the pass through `handle`: its pixels in shading order (none for a
+    /// pretrace), and what it counted.
+    pub fn shade<H: CacheHandle>(
+        &self,
+        integrator: &PixelIntegrator<'_>,
+        handle: &mut H,
+        tile: usize,
+    ) -> (Vec<Vec3>, SampleCounters) {
+        let mut c = SampleCounters::default();
+        let mut pixels = Vec::new();
+        match self {
+            Pass::Pretrace { number, blocks } => blocks.for_each_pixel(tile, |x, y| {
+                integrator.pretrace((x, y), *number, handle, &mut c);
+            }),
+            Pass::Frame(tiles) => {
+                pixels.reserve(tiles.pixel_count(tile));
+                tiles.for_each_pixel(tile, |x, y| {
+                    pixels.push(integrator.pixel(x, y, handle, &mut c));
+                });
+            }
+        }
+        (pixels, c)
+    }
+}
+
 /// Renders one deterministic frame (see the module's documentation) of `scene` seen by `camera`
 /// with `threads` workers sharing `cache`, after removing what `removal` selects.
 ///
@@ -151,44 +220,25 @@ pub fn render<C: IrradianceCache>(
             .build()
             .expect("a rayon pool of the frame's threads")
     });
-    let side = tile_side(settings);
     let mut counters = SampleCounters::default();
     let mut report = FrameReport::default();
-    // The reference caches nothing: pretraces would only cost.
-    let strides: &[u32] = if scheme == Scheme::None {
-        &[]
-    } else {
-        &PRETRACE_STRIDES
-    };
-    for (pass, &stride) in strides.iter().enumerate() {
-        let blocks = GridTiles {
-            tiles: Tiles::sized(settings, block_side(settings, side, stride)),
-            stride,
-        };
-        let frame = cache.frame();
-        let done = run_tiles(&frame, pool.as_ref(), threads, blocks.count(), |h, t| {
-            let mut c = SampleCounters::default();
-            let pass = u32::try_from(pass).unwrap_or(u32::MAX);
-            blocks.for_each_pixel(t, |x, y| integrator.pretrace((x, y), pass, h, &mut c));
-            c
-        });
-        done.into_iter().for_each(|c| counters += c);
-        add(&mut report, frame.close());
-    }
-    let pretrace = (start.elapsed().as_secs_f64(), counters.ic_samples);
-    let tiles = Tiles::sized(settings, side);
-    let frame = cache.frame();
-    let done = run_tiles(&frame, pool.as_ref(), threads, tiles.count(), |h, t| {
-        let mut c = SampleCounters::default();
-        let mut pixels = Vec::with_capacity(tiles.pixel_count(t));
-        tiles.for_each_pixel(t, |x, y| pixels.push(integrator.pixel(x, y, h, &mut c)));
-        (pixels, c)
-    });
-    add(&mut report, frame.close());
+    let mut pretrace = (0.0, 0);
     let mut image = Image::new(settings.width, settings.height);
-    for (t, (pixels, c)) in done.into_iter().enumerate() {
-        paint(&tiles, t, pixels, &mut image);
-        counters += c;
+    for pass in Pass::all(settings, scheme) {
+        let frame = cache.frame();
+        let done = run_tiles(&frame, pool.as_ref(), threads, pass.count(), |h, t| {
+            pass.shade(&integrator, h, t)
+        });
+        add(&mut report, frame.close());
+        for (t, (pixels, c)) in done.into_iter().enumerate() {
+            counters += c;
+            if let Pass::Frame(tiles) = &pass {
+                paint(tiles, t, pixels, &mut image);
+            }
+        }
+        if let Pass::Pretrace { .. } = pass {
+            pretrace = (start.elapsed().as_secs_f64(), counters.ic_samples);
+        }
     }
     let seconds = start.elapsed().as_secs_f64();
     let records = cache.snapshot();

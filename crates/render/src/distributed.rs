@@ -30,6 +30,7 @@
 //! complete on rank 0.
 
 use super::camera::Camera;
+use super::deterministic;
 use super::film::Image;
 use super::integrator::{PixelIntegrator, SampleCounters};
 use super::scene::Scene;
@@ -46,8 +47,10 @@ use std::fmt;
 use std::sync::mpsc;
 use std::time::{Duration, Instant};
 use wfic::cache::wf::Minimal;
-use wfic::cache::{CacheConfig, CacheHandle, CasFailure, Inserted, IrradianceCache, WaitFree};
-use wfic::ic::{self, InsertError, Interpolated, Record, Selection, WorkerId};
+use wfic::cache::{
+    CacheConfig, CacheHandle, CasFailure, Inserted, IrradianceCache, Scheme, WaitFree,
+};
+use wfic::ic::{self, InsertError, Interpolated, Record, RecordId, Selection, WorkerId};
 use wfic::sync::Mutex;
 
 /// How long a rank's main thread waits for a worker's event before it checks whether a round
@@ -76,8 +79,9 @@ impl Default for Exchange {
     }
 }
 
-/// A record as it crosses between ranks: its fields as plain floats, and the rank that computed
-/// it. The id is not sent: the receiving cache gives the record an id of its own.
+/// A record as it crosses between ranks: its fields as plain floats, the rank that computed it,
+/// and its id there. An ordinary frame's receiver gives the record an id of its own; a
+/// deterministic frame's inserts it through its tile's handle, which gives it the same id.
 #[derive(Equivalence, Clone, Copy, Debug, Default, PartialEq)]
 pub struct WireRecord {
     /// position, normal, irradiance (3 each), radius, translational then rotational gradient (9
@@ -85,6 +89,8 @@ pub struct WireRecord {
     pub fields: [f32; 28],
     /// The rank that computed it.
     pub origin: u32,
+    /// Its id on that rank ([`wfic::ic::RecordId::get`]).
+    pub id: u64,
 }
 
 impl WireRecord {
@@ -100,7 +106,11 @@ impl WireRecord {
             put(19 + 3 * c, record.grad_r[c]);
         }
         fields[9] = record.radius;
-        Self { fields, origin }
+        Self {
+            fields,
+            origin,
+            id: record.id().get(),
+        }
     }
 
     /// The record again (unsealed: the cache that stores it gives it an id).
@@ -109,6 +119,12 @@ impl WireRecord {
         let v = |at: usize| Vec3::new(f[at], f[at + 1], f[at + 2]);
         Record::new(v(0), v(3), v(6), f[9])
             .with_gradients([v(10), v(13), v(16)], [v(19), v(22), v(25)])
+    }
+
+    /// The record's id on the rank that computed it.
+    pub fn record_id(&self) -> RecordId {
+        let worker = WorkerId::new((self.id >> 48) as u32);
+        RecordId::new(worker, (self.id >> 32) & 0xffff, self.id & 0xffff_ffff)
     }
 
     /// A digest of the fields' bits (FNV-1a), order-sensitive: what a sender and its receivers
@@ -144,6 +160,14 @@ impl Fnv {
     fn finish(&self) -> u64 {
         self.0
     }
+
+    /// Writes what a digest of exchanged records covers: the fields' bits, then the origin.
+    fn write_record(&mut self, r: &WireRecord) {
+        for x in r.fields {
+            self.write(u64::from(x.to_bits()));
+        }
+        self.write(u64::from(r.origin));
+    }
 }
 
 /// What every rank must agree on: a line a person can compare, and a fingerprint that also
@@ -158,7 +182,7 @@ pub fn fingerprint(
     let line =
         format!(
         "scene {} ({} triangles), {}x{}, a {} smoothing {}, {} rays a record, {} light samples, {} spp, seed \
-         {:#x}, radius clamps {}-{} px, tile {}, eye {} target {}, batch {} records / {} ms, {}",
+         {:#x}, radius clamps {}-{} px, tile {}, eye {} target {}, batch {} records / {} ms, {}{}",
         scene.name(),
         scene.triangle_count(),
         s.width,
@@ -177,6 +201,7 @@ pub fn fingerprint(
         exchange.batch_records,
         exchange.batch_ms,
         if exchange.share { "shared" } else { "not shared" },
+        if s.deterministic { ", deterministic" } else { "" },
     );
     let mut h = Fnv::new();
     for b in line.bytes() {
@@ -377,6 +402,56 @@ impl<H: CacheHandle> CacheHandle for Sending<'_, H> {
     }
 }
 
+/// A deterministic tile's handle that keeps every record it stores, sealed with its id, for the
+/// pass's exchange.
+struct Keeping<'h, H> {
+    inner: &'h mut H,
+    kept: Vec<Record>,
+}
+
+impl<H: CacheHandle> CacheHandle for Keeping<'_, H> {
+    fn worker(&self) -> WorkerId {
+        self.inner.worker()
+    }
+
+    fn frame(&self) -> u64 {
+        self.inner.frame()
+    }
+
+    fn lookup_visible(
+        &mut self,
+        point: Vec3,
+        normal: Vec3,
+        visible: wfic::cache::Visibility,
+    ) -> Option<Interpolated> {
+        self.inner.lookup_visible(point, normal, visible)
+    }
+
+    fn lookup(&mut self, point: Vec3, normal: Vec3) -> Option<Interpolated> {
+        self.inner.lookup(point, normal)
+    }
+
+    fn insert(&mut self, record: Record) -> Result<Inserted, InsertError> {
+        let outcome = self.inner.insert(record)?;
+        if let Inserted::Stored(id) = outcome {
+            self.kept.push(record.sealed(id));
+        }
+        Ok(outcome)
+    }
+
+    fn remove(&mut self, selection: &Selection) -> usize {
+        self.inner.remove(selection)
+    }
+
+    fn valid_records(&mut self, point: Vec3, normal: Vec3, out: &mut Vec<Record>) {
+        self.inner.valid_records(point, normal, out);
+    }
+
+    fn stats(&self) -> &wfic::cache::WorkerStats {
+        self.inner.stats()
+    }
+}
+
 /// Renders one frame over the ranks of `world` (every rank calls this with the same scene,
 /// camera, settings and exchange; `threads` may differ between ranks). Rank 0 gets the frame;
 /// the others get `None`.
@@ -450,7 +525,11 @@ pub fn render_distributed_frames(
     let mut frames = Vec::with_capacity(cameras.len());
     for camera in cameras {
         let start = Instant::now();
-        let mine = job.render_frame(&mut cache, camera, start);
+        let mine = if settings.deterministic {
+            job.render_deterministic(&mut cache, camera, start)
+        } else {
+            job.render_frame(&mut cache, camera, start)
+        };
         if let Some(frame) = job.assemble(mine, start) {
             frames.push(frame);
         }
@@ -588,6 +667,127 @@ impl Job<'_> {
         }
     }
 
+    /// Renders this rank's share of a deterministic frame ([`crate::deterministic`]) seen by
+    /// `camera` with `cache`: every pass is a cache frame of the same number on every rank, whose
+    /// tiles are dealt round robin (tile `t` to rank `t mod size`); after its tiles, a rank
+    /// gathers every rank's new records with their ids (`MPI_Allgatherv`) and inserts the
+    /// others' through the handle of the tile that made them, in that tile's order, so that each
+    /// gets the id it has on its own rank. Every rank then holds the records, ids included, that
+    /// one process running every tile would, and the next pass sees what it would see.
+    fn render_deterministic(
+        &self,
+        cache: &mut WaitFree<Minimal>,
+        camera: &Camera,
+        start: Instant,
+    ) -> RankFrame {
+        let integrator =
+            PixelIntegrator::new(self.scene, camera, self.settings, self.config.accuracy());
+        let (rank, size) = (self.rank as usize, self.size);
+        let mut stats = RankStats {
+            rank: self.rank,
+            threads: self.threads,
+            received_digests: vec![0; size],
+            ..RankStats::default()
+        };
+        let (mut sent, mut received) = (
+            Fnv::new(),
+            (0..size).map(|_| Fnv::new()).collect::<Vec<_>>(),
+        );
+        let (mut counters, mut computed, mut pixels) =
+            (SampleCounters::default(), Vec::new(), Vec::new());
+        for pass in deterministic::Pass::all(self.settings, Scheme::Wf) {
+            let frame = cache.frame();
+            let mine: Vec<usize> = (rank..pass.count()).step_by(size).collect();
+            // What the workers need of the job (the communicator stays on this thread).
+            let (fail, me) = (self.fail, self.rank);
+            let done = frame.run_tile_list(self.threads, &mine, |h, t| {
+                let mut keeping = Keeping {
+                    inner: h,
+                    kept: Vec::new(),
+                };
+                let out = pass.shade(&integrator, &mut keeping, t);
+                fail_if_asked(fail, me);
+                (out, keeping.kept)
+            });
+            // This pass's records of this rank's tiles, in id order: by tile, then in each
+            // tile's own order.
+            let new: Vec<Record> = done
+                .iter()
+                .flat_map(|(_, kept)| kept.iter().copied())
+                .collect();
+            let outgoing: Vec<WireRecord> =
+                new.iter().map(|r| WireRecord::new(r, self.rank)).collect();
+            let incoming = self.all_gather(&outgoing, &mut stats);
+            let inserting = Instant::now();
+            for w in &outgoing {
+                sent.write_record(w);
+            }
+            let bytes = std::mem::size_of::<WireRecord>() as u64;
+            stats.records_sent += outgoing.len() as u64;
+            stats.bytes_sent += bytes * outgoing.len() as u64 * (size as u64 - 1);
+            let mut handle: Option<(WorkerId, _)> = None;
+            for w in incoming.iter().filter(|w| w.origin != self.rank) {
+                stats.records_received += 1;
+                stats.bytes_received += bytes;
+                received[w.origin as usize].write_record(w);
+                let id = w.record_id();
+                if !matches!(&handle, Some((tile, _)) if *tile == id.worker()) {
+                    handle = Some((id.worker(), frame.handle_for(id.worker())));
+                }
+                let (_, h) = handle.as_mut().expect("the tile's handle");
+                match h.insert(w.record()) {
+                    Ok(Inserted::Stored(got)) if got == id => stats.records_inserted += 1,
+                    other => panic!(
+                        "rank {rank}: record {id} from rank {} came back as {other:?}: the \
+                         ranks' caches have diverged",
+                        w.origin
+                    ),
+                }
+            }
+            drop(handle);
+            stats.insert_seconds += inserting.elapsed().as_secs_f64();
+            stats.rounds += 1;
+            frame.close();
+            computed.extend(new);
+            for (t, ((p, c), _)) in mine.into_iter().zip(done) {
+                counters += c;
+                if let deterministic::Pass::Frame(_) = pass {
+                    pixels.push((t, p));
+                }
+            }
+        }
+        stats.seconds = start.elapsed().as_secs_f64();
+        stats.sent_digest = sent.finish();
+        stats.received_digests = received.iter().map(Fnv::finish).collect();
+        stats.received_digests[rank] = 0;
+        stats.cache_records = cache.stats().records as u64;
+        stats.tiles = pixels.len();
+        stats.ic_samples = counters.ic_samples;
+        stats.records_computed = computed.len() as u64;
+        RankFrame {
+            tiles: pixels,
+            computed,
+            stats,
+        }
+    }
+
+    /// Every rank's `outgoing` records, by rank (`MPI_Allgatherv`), the collective timed.
+    fn all_gather(&self, outgoing: &[WireRecord], stats: &mut RankStats) -> Vec<WireRecord> {
+        let (world, size) = (self.world, self.size);
+        let entered = Instant::now();
+        let mut counts = vec![0 as Count; size];
+        world.all_gather_into(&(outgoing.len() as Count), &mut counts[..]);
+        let total: usize = counts.iter().map(|&c| c as usize).sum();
+        let mut incoming = vec![WireRecord::default(); total];
+        if total > 0 {
+            let displs = displacements(&counts);
+            let mut partition = PartitionMut::new(&mut incoming[..], &counts[..], &displs[..]);
+            world.all_gather_varcount_into(outgoing, &mut partition);
+        }
+        stats.collective_seconds += entered.elapsed().as_secs_f64();
+        incoming
+    }
+
     /// Gathers every rank's tiles, statistics and computed records on rank 0, which assembles
     /// the frame; `None` on the other ranks.
     fn assemble(&self, mine: RankFrame, start: Instant) -> Option<DistributedFrame> {
@@ -618,7 +818,12 @@ impl Job<'_> {
             gathered_records.expect("rank 0 gathers"),
             gathered_json.expect("rank 0 gathers"),
         );
-        let tiles = Tiles::new(self.settings);
+        let side = if self.settings.deterministic {
+            deterministic::tile_side(self.settings)
+        } else {
+            self.settings.tile_size
+        };
+        let tiles = Tiles::sized(self.settings, side);
         let mut image = Image::new(self.settings.width, self.settings.height);
         for (tiles_of_rank, pixels_of_rank) in index.iter().zip(&pixels) {
             let mut values = pixels_of_rank.chunks_exact(3).map(Vec3::from_slice);
