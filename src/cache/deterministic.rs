@@ -375,6 +375,7 @@ mod tests {
         let frame = cache.frame();
         let mut zero = TileHandle::new(frame.handle_for(WorkerId::new(0)));
         let mut one = TileHandle::new(frame.handle_for(WorkerId::new(1)));
+        assert_eq!((zero.frame(), zero.worker()), (0, WorkerId::new(0)));
         zero.insert(r).unwrap();
         assert!(zero.lookup(QUERY, Vec3::Z).is_some(), "its own record");
         assert!(
@@ -544,6 +545,7 @@ mod tests {
 
     #[test]
     fn a_frame_takes_as_many_tiles_as_a_record_id_can_number() {
+        assert_eq!(MAX_TILES, 1 << 16, "a worker id's 16 bits");
         let mut cache = crate::cache::WaitFree::adopt(config());
         let frame = cache.frame();
         let tiles = frame.run_tiles(2, MAX_TILES, |h, t| (h.worker().index() as usize, t));
