@@ -28,12 +28,14 @@ pub struct DeterministicConfig {
     pub settings: RenderSettings,
     /// The references are traced at one pixel in `stride` x `stride`.
     pub stride: u32,
+    /// Rank counts of the MPI jobs (one thread a rank; empty: none run).
+    pub ranks: Vec<usize>,
 }
 
 impl DeterministicConfig {
     /// Frames in all (references included): the progress bar's length.
     pub fn frames(&self) -> usize {
-        self.scenes.len() * self.runs * (1 + 2 * self.threads.len())
+        self.scenes.len() * self.runs * (1 + 2 * (self.threads.len() + self.ranks.len()))
     }
 }
 
@@ -44,8 +46,10 @@ pub struct Row {
     pub scene: String,
     /// Run (the seed is the settings' plus this).
     pub run: usize,
-    /// Threads.
+    /// Threads (of each rank).
     pub threads: usize,
+    /// MPI ranks (1: one process, no MPI).
+    pub ranks: usize,
     /// Deterministic.
     pub deterministic: bool,
     /// The frame's statistics.
@@ -76,6 +80,16 @@ pub fn run(
             "reproduce deterministic: --runs, --threads and --scenes must not be 0 or empty".into(),
         );
     }
+    if config.ranks.contains(&0) {
+        return Err("reproduce deterministic: --ranks must be at least 1".into());
+    }
+    let launcher = if config.ranks.is_empty() {
+        None
+    } else {
+        Some(crate::distributed::Launcher::find()?)
+    };
+    let work = std::env::temp_dir().join(format!("wfic-deterministic-{}", std::process::id()));
+    std::fs::create_dir_all(&work).map_err(|e| format!("{}: {e}", work.display()))?;
     let mut rows = Vec::new();
     for name in &config.scenes {
         let scene = scenes::load(name)?;
@@ -101,14 +115,49 @@ pub fn run(
                         scene: name.clone(),
                         run,
                         threads,
+                        ranks: 1,
                         deterministic,
                         error: image_error(&out.image, &reference, &mask).rel_rmse,
                         stats: out.stats,
                     });
                 }
             }
+            for &ranks in &config.ranks {
+                let launcher = launcher.as_ref().expect("found when ranks are asked for");
+                for deterministic in [false, true] {
+                    progress(&format!(
+                        "{name} seed {run}: {ranks} ranks, deterministic {deterministic}"
+                    ));
+                    let layout = crate::distributed::Layout {
+                        label: "the ranks",
+                        ranks,
+                        threads: 1,
+                        share: true,
+                        batch_records: 256,
+                        batch_ms: 20,
+                        deterministic,
+                    };
+                    let (image, stats, _) = launcher.run(&layout, (name, &settings), 1, &work)?;
+                    let frame = stats.frames.frames().first().cloned().unwrap_or_default();
+                    rows.push(Row {
+                        scene: name.clone(),
+                        run,
+                        threads: 1,
+                        ranks,
+                        deterministic,
+                        error: image_error(&image, &reference, &mask).rel_rmse,
+                        stats: FrameStats {
+                            seconds: frame.seconds,
+                            cache_records: frame.records_computed as usize,
+                            frame_hash: image.hash(),
+                            ..FrameStats::default()
+                        },
+                    });
+                }
+            }
         }
     }
+    let _ = std::fs::remove_dir_all(&work);
     Ok(Deterministic {
         config: config.clone(),
         machine: machine.clone(),
@@ -116,10 +165,11 @@ pub fn run(
     })
 }
 
-/// One scene at one thread count: the paired frames of its runs.
+/// One scene at one thread and rank count: the paired frames of its runs.
 struct Pair<'a> {
     scene: &'a str,
     threads: usize,
+    ranks: usize,
     ordinary: Vec<&'a Row>,
     deterministic: Vec<&'a Row>,
 }
@@ -151,18 +201,24 @@ impl Pair<'_> {
 impl Deterministic {
     fn pairs(&self) -> Vec<Pair<'_>> {
         let mut out = Vec::new();
+        let layouts: Vec<(usize, usize)> = (self.config.threads.iter().map(|&t| (t, 1)))
+            .chain(self.config.ranks.iter().map(|&r| (1, r)))
+            .collect();
         for scene in &self.config.scenes {
-            for &threads in &self.config.threads {
+            for &(threads, ranks) in &layouts {
                 let of = |d: bool| -> Vec<&Row> {
                     (self.rows.iter())
                         .filter(|r| {
-                            &r.scene == scene && r.threads == threads && r.deterministic == d
+                            &r.scene == scene
+                                && (r.threads, r.ranks) == (threads, ranks)
+                                && r.deterministic == d
                         })
                         .collect()
                 };
                 out.push(Pair {
                     scene,
                     threads,
+                    ranks,
                     ordinary: of(false),
                     deterministic: of(true),
                 });
@@ -193,7 +249,11 @@ impl Deterministic {
     /// seeds' spread), and bit-identical frames at every thread count.
     pub fn checks(&self) -> Vec<Check> {
         let mut out = Vec::new();
-        for p in self.pairs().iter().filter(|p| p.threads == 2) {
+        for p in self
+            .pairs()
+            .iter()
+            .filter(|p| (p.threads, p.ranks) == (2, 1))
+        {
             let time = paired_ratio(
                 &p.of(true, |r| r.stats.seconds),
                 &p.of(false, |r| r.stats.seconds),
@@ -240,8 +300,8 @@ impl Deterministic {
         out.push(Check::new(
             "",
             format!(
-                "deterministic frames bit-identical at {:?} threads",
-                self.config.threads
+                "deterministic frames bit-identical at {:?} threads and {:?} ranks",
+                self.config.threads, self.config.ranks
             ),
             Verdict::of(bad.is_empty()),
             if bad.is_empty() {
@@ -261,7 +321,13 @@ impl Deterministic {
         let table = Table::new()
             .md("scene", |p: &Pair| p.scene.to_owned())
             .left()
-            .md("threads", |p| self.machine.count(p.threads))
+            .md("threads", |p| {
+                if p.ranks > 1 {
+                    format!("{} ranks x 1", p.ranks)
+                } else {
+                    self.machine.count(p.threads)
+                }
+            })
             .md("WF (s)", |p| {
                 format!("{:.3}", mean_of(p, false, |r| r.stats.seconds))
             })
@@ -301,8 +367,9 @@ impl Deterministic {
             "{}x{}, {} primary rays a pixel, {} rays a record, {} light samples, a = {}, {} \
              seeds (runs); times are means, the ratio the median of the per-seed ratios with its \
              interval; errors are relative RMSE against each seed's `--scheme none` image on a \
-             1-in-{}x{} grid. 2 ranks: not run, `--deterministic` is not available with \
-             `--distributed` yet.\n\n{}\n## Checks\n\n{}",
+             1-in-{}x{} grid. A row of ranks is `mpirun` of `wfic render --distributed` ({}), \
+             its time rank 0's frame, its records those the ranks computed; its lookups are not \
+             counted.\n\n{}\n## Checks\n\n{}",
             s.width,
             s.height,
             s.pixel_samples,
@@ -312,6 +379,11 @@ impl Deterministic {
             self.config.runs,
             self.config.stride,
             self.config.stride,
+            if self.config.ranks.is_empty() {
+                "none ran"
+            } else {
+                "one thread a rank, shared records"
+            },
             table.markdown(&pairs),
             Check::markdown(&self.checks(), true),
         )
@@ -327,8 +399,9 @@ impl Deterministic {
                 (self.config.settings.seed.wrapping_add(r.run as u64)).to_string()
             })
             .csv("threads", |r| r.threads.to_string())
+            .csv("ranks", |r| r.ranks.to_string())
             .csv("oversubscribed", |r| {
-                m.oversubscribed(r.threads).to_string()
+                m.oversubscribed(r.threads * r.ranks).to_string()
             })
             .csv("deterministic", |r| r.deterministic.to_string())
             .csv("seconds", |r| format!("{:.5}", r.stats.seconds))
@@ -346,7 +419,8 @@ impl Deterministic {
     /// Writes `deterministic.md` and `deterministic.csv` into `dir`, with the provenance of
     /// `command`.
     pub fn write(&self, dir: &Path, command: &str) -> Result<(), String> {
-        let provenance = Provenance::new(command, &self.machine, &self.config.threads, &[]);
+        let ranks: Vec<(usize, usize)> = self.config.ranks.iter().map(|&r| (r, 1)).collect();
+        let provenance = Provenance::new(command, &self.machine, &self.config.threads, &ranks);
         let out = Output::new(dir, &provenance)?;
         out.csv("deterministic.csv", &self.csv())?;
         let title = "Deterministic frames against ordinary WF frames";
@@ -370,6 +444,7 @@ mod tests {
             scene: "cornell".into(),
             run,
             threads,
+            ranks: 1,
             deterministic,
             stats,
             error: if deterministic { 0.051 } else { 0.05 },
@@ -384,6 +459,7 @@ mod tests {
                 runs: 2,
                 settings: RenderSettings::new(8, 8),
                 stride: 2,
+                ranks: Vec::new(),
             },
             machine: Machine::detect(),
             rows,

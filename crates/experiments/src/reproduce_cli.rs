@@ -55,6 +55,10 @@ pub struct DeterministicArgs {
     /// The brute-force references are traced at one pixel in STRIDE x STRIDE.
     #[arg(long, default_value_t = 2)]
     pub stride: u32,
+    /// Rank counts of `mpirun` jobs, one thread a rank (default: 2 when wfic is built with the
+    /// `mpi` feature, none without).
+    #[arg(long, value_delimiter = ',')]
+    pub ranks: Option<Vec<usize>>,
     /// Image size (default 256, quick 128).
     #[command(flatten)]
     pub size: SizeArgs,
@@ -450,8 +454,14 @@ fn deterministic(a: DeterministicArgs, machine: &Machine) -> Result<(), String> 
         runs: or_quick(a.runs, a.quick, (3, 7)),
         settings: sampling.settings((w, h))?,
         stride: a.stride,
+        ranks: a.ranks.unwrap_or(if cfg!(feature = "mpi") {
+            vec![2]
+        } else {
+            Vec::new()
+        }),
     };
-    println!("{}", machine.banner(&config.threads));
+    let ranks: Vec<(usize, usize)> = config.ranks.iter().map(|&r| (r, 1)).collect();
+    println!("{}", machine.banner_with_ranks(&config.threads, &ranks));
     let progress = Progress::new(config.frames(), a.output.quiet).echo(a.output.quiet);
     let start = std::time::Instant::now();
     let d = progress.run(|p| deterministic::run(&config, machine, p))?;

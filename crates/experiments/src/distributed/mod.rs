@@ -60,6 +60,8 @@ pub struct Layout {
     pub batch_records: usize,
     /// Batch timer (ms).
     pub batch_ms: u64,
+    /// Deterministic frames (`--deterministic`: round-robin tiles, an exchange a pass).
+    pub deterministic: bool,
 }
 
 /// A timer too long to fire in a frame: the sweep's rounds start on the batch size (or a rank
@@ -81,6 +83,7 @@ impl DistributedConfig {
             share,
             batch_records: self.batch_records,
             batch_ms: self.batch_ms,
+            deterministic: false,
         };
         [
             layout(ONE, 1, 2, true),
@@ -99,6 +102,7 @@ impl DistributedConfig {
             share: true,
             batch_records: batch,
             batch_ms: TIMER_OFF_MS,
+            deterministic: false,
         }
     }
 
@@ -219,14 +223,14 @@ fn brute_force(
 }
 
 /// How `mpirun` is started.
-struct Launcher {
+pub(crate) struct Launcher {
     bin: PathBuf,
     isolate: bool,
 }
 
 impl Launcher {
     /// Finds `mpirun` and this binary; checks the binary was built with the `mpi` feature.
-    fn find() -> Result<Self, String> {
+    pub(crate) fn find() -> Result<Self, String> {
         if !cfg!(feature = "mpi") {
             return Err(
                 "reproduce distributed runs `wfic render --distributed` under mpirun, \
@@ -257,11 +261,12 @@ impl Launcher {
         Ok(Self { bin, isolate })
     }
 
-    /// The `mpirun` command of one job of `frames` frames writing into `dir`.
+    /// The `mpirun` command of one job of `frames` frames of built-in scene `scene` with `s`,
+    /// writing into `dir`.
     fn command(
         &self,
         layout: &Layout,
-        config: &DistributedConfig,
+        (scene, s): (&str, &RenderSettings),
         frames: usize,
         dir: &Path,
     ) -> Command {
@@ -271,14 +276,7 @@ impl Launcher {
             cmd.args(["--net", "--", "sh", "-c", lo_up, "sh", "mpirun"]);
         }
         cmd.args(["-np", &layout.ranks.to_string()]).arg(&self.bin);
-        cmd.args([
-            "render",
-            "--distributed",
-            "--quiet",
-            "--scene",
-            &config.scene,
-        ]);
-        let s = &config.settings;
+        cmd.args(["render", "--distributed", "--quiet", "--scene", scene]);
         for (flag, value) in [
             ("--width", s.width.to_string()),
             ("--height", s.height.to_string()),
@@ -299,6 +297,9 @@ impl Launcher {
         if !layout.share {
             cmd.arg("--no-share");
         }
+        if layout.deterministic {
+            cmd.arg("--deterministic");
+        }
         cmd.envs([
             ("OMPI_MCA_btl", "self,vader"),
             ("OMPI_MCA_rmaps_base_oversubscribe", "1"),
@@ -310,15 +311,15 @@ impl Launcher {
 
     /// Runs one job; returns rank 0's image (the last frame's), its statistics and the wall
     /// seconds.
-    fn run(
+    pub(crate) fn run(
         &self,
         layout: &Layout,
-        config: &DistributedConfig,
+        job: (&str, &RenderSettings),
         frames: usize,
         dir: &Path,
     ) -> Result<(Image, DistributedStats, f64), String> {
         let what = format!("mpirun -np {} ({})", layout.ranks, layout.label);
-        let (_, wall) = time_command(&mut self.command(layout, config, frames, dir), &what)?;
+        let (_, wall) = time_command(&mut self.command(layout, job, frames, dir), &what)?;
         // The last frame's image (`job-NNN.pfm` when there are several).
         let pfm = if frames > 1 {
             dir.join(format!("job-{:03}.pfm", frames - 1))
@@ -347,7 +348,8 @@ impl Bench<'_> {
         let runs = self.config.runs;
         let runs = repeat(runs, |k| {
             progress(&format!("{} (run {} of {runs})", layout.label, k + 1));
-            self.launcher.run(layout, self.config, 1, self.work)
+            let job = (self.config.scene.as_str(), &self.config.settings);
+            self.launcher.run(layout, job, 1, self.work)
         })?;
         let frame = |s: &DistributedStats| s.frames.frames().first().cloned().unwrap_or_default();
         let times: Vec<f64> = runs.iter().map(|(_, s, _)| frame(s).seconds).collect();
@@ -389,7 +391,8 @@ impl Bench<'_> {
         let mut animations = Vec::new();
         for layout in &config.layouts()[..3] {
             progress(&format!("animation, {n} frames: {}", layout.label));
-            let (image, stats, _) = self.launcher.run(layout, config, n, self.work)?;
+            let job = (config.scene.as_str(), &config.settings);
+            let (image, stats, _) = self.launcher.run(layout, job, n, self.work)?;
             animations.push(Animation {
                 layout: *layout,
                 frames: stats.frames.frames().to_vec(),
