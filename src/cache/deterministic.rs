@@ -624,4 +624,54 @@ mod tests {
             assert_eq!(records, ids, "the one-cache run's records");
         }
     }
+
+    /// Every backend: a handle knows its frame's number; a visible lookup is counted as a lookup
+    /// and finds the tile's own record of this frame (LW's in its local octree), but not another
+    /// tile's; which schemes a deterministic frame can run.
+    #[test]
+    fn every_backend_numbers_its_frames_and_looks_up_by_the_rule() {
+        struct Check;
+        impl CacheJob for Check {
+            type Output = ();
+            fn run<C: IrradianceCache>(self, mut cache: C) {
+                let scheme = cache.scheme();
+                let r = Record::new(Vec3::new(4.0, 5.0, 5.0), Vec3::Z, Vec3::ONE, 1.5);
+                for k in 0..3 {
+                    let frame = cache.frame();
+                    let mut h = frame.handle_for(WorkerId::new(0));
+                    assert_eq!(h.frame(), k, "{scheme}: frame {k}");
+                    h.insert(r).unwrap();
+                    let own =
+                        h.lookup_visible(QUERY, Vec3::Z, Visibility::new(k, WorkerId::new(0)));
+                    let other =
+                        h.lookup_visible(QUERY, Vec3::Z, Visibility::new(k, WorkerId::new(1)));
+                    assert_eq!(h.stats().lookups, 2, "{scheme}: counted as lookups");
+                    if scheme != Scheme::None {
+                        let k = k as u32;
+                        assert_eq!(own.map(|i| i.records), Some(k + 1), "{scheme}: its own");
+                        let earlier = (k > 0).then_some(k);
+                        assert_eq!(other.map(|i| i.records), earlier, "{scheme}: not another's");
+                    }
+                }
+            }
+        }
+        for scheme in Scheme::ALL {
+            scheme.build(config(), Check);
+        }
+        let deterministic: Vec<Scheme> = Scheme::ALL
+            .into_iter()
+            .filter(|s| s.is_deterministic())
+            .collect();
+        assert_eq!(
+            deterministic,
+            [
+                Scheme::Tra,
+                Scheme::Lck,
+                Scheme::LckRw,
+                Scheme::Lw,
+                Scheme::Wf,
+                Scheme::None
+            ]
+        );
+    }
 }
