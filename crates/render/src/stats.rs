@@ -390,6 +390,7 @@ mod tests {
             hemisphere_seconds: 0.25,
             cache_records: 9,
             worker_seconds: vec![0.5, 0.25],
+            frame_hash: "00c0ffee00c0ffee".to_owned(),
             ..FrameStats::default()
         };
         let summary = SceneSummary {
@@ -414,7 +415,11 @@ mod tests {
         // 0.75 s of the 2 x 0.5 s worker-time shaded.
         assert_eq!(json["idle_share"], 0.25);
         assert_eq!(json["removed"], 0);
-        assert_eq!(json.as_object().unwrap().len(), 27);
+        assert_eq!(json["frame_hash"], "00c0ffee00c0ffee");
+        assert_eq!(json["pretrace_records"], 0);
+        // An ordinary frame has no record hash: the key is left out.
+        assert!(json.get("records_hash").is_none());
+        assert_eq!(json.as_object().unwrap().len(), 30);
     }
 
     fn rank(rank: u32) -> RankStats {
