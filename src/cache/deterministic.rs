@@ -393,10 +393,22 @@ mod tests {
         frame.close();
         let frame = cache.frame();
         let mut one = TileHandle::new(frame.handle_for(WorkerId::new(1)));
+        assert_eq!(one.frame(), 1);
         let hit = one
             .lookup(QUERY, Vec3::Z)
             .expect("an earlier frame's record");
         assert_eq!(hit.foreign, 1, "another tile's record counts as foreign");
+        // Its own rule, asked for by name, is its lookup; another rule is refused.
+        let own = one.lookup_visible(QUERY, Vec3::Z, one.visibility());
+        assert_eq!(own.map(|i| i.records), Some(1));
+        let other = Visibility::new(1, WorkerId::new(0));
+        let caught = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+            one.lookup_visible(QUERY, Vec3::Z, other)
+        }));
+        assert!(
+            caught.is_err(),
+            "another tile's rule through this tile's handle"
+        );
     }
 
     #[test]
