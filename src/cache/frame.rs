@@ -226,6 +226,9 @@ pub struct Frame<'c, C: IrradianceCache> {
 }
 
 impl<'c, C: IrradianceCache> Frame<'c, C> {
+    /// The most worker threads [`Frame::run`] starts: one per worker id ([`WorkerId::MAX`] + 1).
+    pub const MAX_THREADS: usize = WorkerId::MAX as usize + 1;
+
     /// Opens a frame of `cache` (the same as [`IrradianceCache::frame`]).
     pub fn new(cache: &'c mut C) -> Self {
         Self {
@@ -266,9 +269,18 @@ impl<'c, C: IrradianceCache> Frame<'c, C> {
     /// keeps what the panicked worker's handle left.
     ///
     /// # Panics
-    /// If `threads` is 0, or a worker panics. Calling `run` (or `Frame::run_on_pool`) a second
-    /// time on the same frame panics too: worker ids `0..threads` already have their handles in
-    /// this frame, and a frame gives each worker id one handle. Open a new frame for another pass.
+    /// - If `threads` is 0 (`a frame needs at least one worker thread`) or above
+    ///   [`Frame::MAX_THREADS`] (`N worker threads: at most 65536`), before any thread starts.
+    /// - If the operating system refuses to start a thread (`could not start worker thread I of
+    ///   N: ...`), after the threads already started have finished their work. Near the system's
+    ///   limits (memory maps, for tens of thousands of threads) the standard library may instead
+    ///   abort the process while it sets up a started thread's signal stack, which no caller can
+    ///   catch: a program that takes the count from its user bounds it well below (the `wfic`
+    ///   command line allows 1024).
+    /// - If a worker panics.
+    /// - Calling `run` (or `Frame::run_on_pool`) a second time on the same frame panics too:
+    ///   worker ids `0..threads` already have their handles in this frame, and a frame gives each
+    ///   worker id one handle. Open a new frame for another pass.
     #[cfg(not(checker))]
     pub fn run<'f, T, F>(&'f self, threads: usize, work: F) -> Vec<T>
     where
@@ -276,15 +288,24 @@ impl<'c, C: IrradianceCache> Frame<'c, C> {
         F: Fn(&mut C::Handle<'f>, WorkerId) -> T + Sync,
     {
         assert!(threads > 0, "a frame needs at least one worker thread");
+        assert!(
+            threads <= Self::MAX_THREADS,
+            "{threads} worker threads: at most {}",
+            Self::MAX_THREADS
+        );
         let work = &work;
         crate::sync::thread::scope(|s| {
             let workers: Vec<_> = (0..threads)
                 .map(|i| {
                     let id = WorkerId::new(u32::try_from(i).unwrap_or(u32::MAX));
-                    s.spawn(move || {
-                        let mut handle = self.handle_for(id);
-                        work(&mut handle, id)
-                    })
+                    crate::sync::thread::Builder::new()
+                        .spawn_scoped(s, move || {
+                            let mut handle = self.handle_for(id);
+                            work(&mut handle, id)
+                        })
+                        .unwrap_or_else(|e| {
+                            panic!("could not start worker thread {i} of {threads}: {e}")
+                        })
                 })
                 .collect();
             let mut out = Vec::with_capacity(threads);
@@ -834,6 +855,30 @@ mod tests {
         let mut cache = crate::cache::Sequential::new(config());
         let frame = cache.frame();
         frame.run(0, |_, _| ());
+    }
+
+    /// One thread beyond a worker id for each is refused, with the documented message, before
+    /// any thread starts.
+    #[test]
+    fn more_threads_than_worker_ids_are_refused_before_any_starts() {
+        let mut cache = crate::cache::Sequential::new(config());
+        let frame = cache.frame();
+        let started = AtomicU32::new(0);
+        let refused = catch_unwind(AssertUnwindSafe(|| {
+            frame.run(
+                Frame::<crate::cache::Sequential>::MAX_THREADS + 1,
+                |_, _| {
+                    // Relaxed: read after the scope joined every thread, which orders it.
+                    started.fetch_add(1, unchecked::Ordering::Relaxed);
+                },
+            )
+        }))
+        .expect_err("65537 threads must be refused");
+        let message = refused
+            .downcast_ref::<String>()
+            .expect("a formatted message");
+        assert_eq!(message, "65537 worker threads: at most 65536");
+        assert_eq!(started.load(unchecked::Ordering::Relaxed), 0);
     }
 
     /// Frames are numbered 0, 1, 2, … as they close, and a worker's record ids carry the number,

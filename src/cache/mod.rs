@@ -53,7 +53,7 @@ pub struct CacheConfig {
 /// Why a [`CacheConfig`] was refused.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum ConfigError {
-    /// The accuracy is not in `(0, 2]`.
+    /// The accuracy is not in `(0, MAX_ACCURACY]` ([`CacheConfig::MAX_ACCURACY`]).
     Accuracy(f32),
     /// A renderer's smoothing (the factor its lookups widen the accuracy by: the renderer's
     /// `RenderSettings::smoothing`) is below 1 or not finite.
@@ -70,7 +70,11 @@ pub enum ConfigError {
 impl fmt::Display for ConfigError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
-            Self::Accuracy(a) => write!(f, "accuracy {a} is not in (0, 2]"),
+            Self::Accuracy(a) => write!(
+                f,
+                "accuracy {a} is not in (0, {}]",
+                CacheConfig::MAX_ACCURACY
+            ),
             Self::Smoothing(k) => write!(
                 f,
                 "smoothing {k} is not a finite number of at least 1 (lookups interpolate at \
@@ -86,10 +90,20 @@ impl fmt::Display for ConfigError {
 impl std::error::Error for ConfigError {}
 
 impl CacheConfig {
+    /// The largest accuracy a cache takes. Ward's error estimate is `d / R + sqrt(1 - n . n_i)`,
+    /// a record valid where it is below `a`; at `a = 2` a record already serves points up to
+    /// twice its radius away, and points of any normal (the square root is at most `sqrt 2`).
+    /// Renderers use 0.1 to 0.5.
+    pub const MAX_ACCURACY: f32 = 2.0;
+
     /// A cache covering the box `min..max` (the root is the smallest cube around it, enlarged by
     /// 1%), answering at accuracy `a` (Ward's `a`, typically 0.1 to 0.5).
+    ///
+    /// # Errors
+    /// [`ConfigError::Accuracy`] unless `0 < accuracy <= MAX_ACCURACY` (NaN included);
+    /// [`ConfigError::Bounds`] if a corner is not finite or the box is empty or inverted.
     pub fn new(min: Vec3, max: Vec3, accuracy: f32) -> Result<Self, ConfigError> {
-        if !(accuracy > 0.0 && accuracy <= 2.0) {
+        if !(accuracy > 0.0 && accuracy <= Self::MAX_ACCURACY) {
             return Err(ConfigError::Accuracy(accuracy));
         }
         let size = max - min;

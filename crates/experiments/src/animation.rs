@@ -109,6 +109,22 @@ pub struct AnimationConfig {
 }
 
 impl AnimationConfig {
+    /// Refuses a configuration that cannot run: frames, threads or settings out of their ranges.
+    ///
+    /// # Errors
+    /// The argument at fault, named with its range.
+    pub fn validate(&self) -> Result<(), String> {
+        let range = |e: wfic_render::limits::OutOfRange| e.for_option();
+        wfic_render::limits::FRAMES
+            .check(self.frames)
+            .map_err(range)?;
+        wfic_render::limits::THREADS
+            .check(self.threads)
+            .map_err(range)?;
+        self.settings.validate().map_err(range)?;
+        Ok(())
+    }
+
     /// Threads `scheme` runs on ([`crate::harness::threads_of`]).
     pub fn threads_of(&self, scheme: Scheme) -> usize {
         crate::harness::threads_of(scheme, self.threads)
@@ -160,9 +176,7 @@ pub fn run(
     machine: &Machine,
     progress: &mut dyn FnMut(&str),
 ) -> Result<Animation, String> {
-    if config.frames == 0 || config.threads == 0 {
-        return Err("--frames and --threads must be at least 1".to_owned());
-    }
+    config.validate()?;
     let scene = scenes::load(&config.scene)?;
     let n = config.frames;
     let mut orbits = Vec::new();

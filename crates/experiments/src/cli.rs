@@ -1,6 +1,6 @@
 //! The subcommands.
 
-use clap::{Parser, Subcommand};
+use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use std::io::IsTerminal;
 use std::process::ExitCode;
@@ -15,6 +15,10 @@ use wfic::research::workload::{run_synthetic, Room, SyntheticFrame, SyntheticRes
     about = "Shared irradiance caches: TRA, LCK, LW and wait-free WF"
 )]
 struct Cli {
+    /// Check every argument, and that the machine can start the threads and hold the frame,
+    /// then stop before any work.
+    #[arg(long, global = true)]
+    dry_run: bool,
     #[command(subcommand)]
     command: Command,
 }
@@ -49,14 +53,14 @@ struct DemoArgs {
     #[arg(long, value_parser = crate::render_cli::scheme_parser(), value_delimiter = ',')]
     scheme: Vec<Scheme>,
     /// Worker threads (TRA always runs on one).
-    #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u32).range(1..=256))]
-    threads: u32,
+    #[arg(long, default_value_t = 2)]
+    threads: usize,
     /// Shading points per frame.
-    #[arg(long, default_value_t = 400_000, value_parser = clap::value_parser!(u64).range(1..))]
+    #[arg(long, default_value_t = 400_000)]
     points: u64,
     /// Frames (the cache is kept across frames, as in the paper's animations).
-    #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u64).range(1..=10_000))]
-    frames: u64,
+    #[arg(long, default_value_t = 2)]
+    frames: usize,
     /// Ward's accuracy a.
     #[arg(long, default_value_t = 0.3)]
     accuracy: f32,
@@ -68,15 +72,27 @@ struct DemoArgs {
     quiet: bool,
 }
 
+/// The command line as clap sees it: the derived arguments, each numeric option parsing through
+/// its range ([`crate::bounds`]).
+pub fn command() -> clap::Command {
+    crate::bounds::apply(Cli::command())
+}
+
 pub fn main() -> ExitCode {
-    let cli = Cli::parse();
+    let cli = Cli::from_arg_matches(&command().get_matches()).unwrap_or_else(|e| e.exit());
+    let dry = cli.dry_run;
     let result = match cli.command {
-        Command::Demo(args) => demo(&args),
-        Command::Reproduce { what } => crate::reproduce_cli::run(what),
-        Command::Compare { what } => crate::reproduce_cli::run_compare(what),
+        Command::Demo(args) => demo(&args, dry),
+        Command::Reproduce { what } => crate::reproduce_cli::run(what, dry),
+        Command::Compare { what } => crate::reproduce_cli::run_compare(what, dry),
         Command::Scenes => list_scenes(),
         Command::Render(args) => {
-            return match crate::render_cli::run_render(args) {
+            let run = if dry {
+                crate::render_cli::prepare(&args).map(drop)
+            } else {
+                crate::render_cli::run_render(args)
+            };
+            return match run {
                 Ok(()) => ExitCode::SUCCESS,
                 Err(e) => {
                     if !matches!(e, crate::render_cli::RenderError::Reported) {
@@ -84,7 +100,7 @@ pub fn main() -> ExitCode {
                     }
                     ExitCode::from(u8::try_from(e.exit_code()).unwrap_or(1))
                 }
-            }
+            };
         }
     };
     match result {
@@ -120,9 +136,10 @@ fn list_scenes() -> Result<(), String> {
     Ok(())
 }
 
-fn demo(args: &DemoArgs) -> Result<(), String> {
-    if !(args.accuracy > 0.0 && args.accuracy <= 2.0) {
-        return Err(format!("--accuracy {} is not in (0, 2]", args.accuracy));
+fn demo(args: &DemoArgs, dry_run: bool) -> Result<(), String> {
+    crate::bounds::check_resources(args.threads, None)?;
+    if dry_run {
+        return Ok(());
     }
     let schemes = if args.scheme.is_empty() {
         Scheme::CACHED.to_vec()
@@ -137,7 +154,7 @@ fn demo(args: &DemoArgs) -> Result<(), String> {
         args.frames,
         args.accuracy,
         cores,
-        if args.threads as usize > cores {
+        if args.threads > cores {
             format!(" ({} threads: OVERSUBSCRIBED, not scaling)", args.threads)
         } else {
             String::new()
@@ -194,7 +211,7 @@ fn demo(args: &DemoArgs) -> Result<(), String> {
 /// The demo's frames on one scheme's cache.
 struct Frames<'a> {
     room: Room,
-    threads: u32,
+    threads: usize,
     args: &'a DemoArgs,
 }
 
@@ -208,10 +225,10 @@ impl CacheJob for Frames<'_> {
 fn frames<C: IrradianceCache>(
     mut cache: C,
     room: Room,
-    threads: u32,
+    threads: usize,
     args: &DemoArgs,
 ) -> Vec<SyntheticResult> {
-    let total = args.points * args.frames;
+    let total = args.points * args.frames as u64;
     let bar = ProgressBar::new(total);
     if args.quiet || !std::io::stderr().is_terminal() {
         bar.set_draw_target(ProgressDrawTarget::hidden());
@@ -223,11 +240,11 @@ fn frames<C: IrradianceCache>(
     );
     bar.set_prefix(cache.scheme().name());
     let mut out = Vec::new();
-    for frame in 0..args.frames {
+    for frame in 0..args.frames as u64 {
         let done = frame * args.points;
         let spec = SyntheticFrame {
             room,
-            threads,
+            threads: u32::try_from(threads).expect("--threads is at most 1024"),
             points: args.points as usize,
             work_per_record: args.work,
             seed: 0x1234 + frame,

@@ -33,6 +33,28 @@ pub struct DeterministicConfig {
 }
 
 impl DeterministicConfig {
+    /// Refuses a configuration that cannot run: no scenes, or runs, threads, ranks, the stride
+    /// or the settings out of their ranges.
+    ///
+    /// # Errors
+    /// The argument at fault, named with its range.
+    pub fn validate(&self) -> Result<(), String> {
+        if self.scenes.is_empty() || self.threads.is_empty() {
+            return Err("reproduce deterministic: --scenes and --threads must not be empty".into());
+        }
+        let range = |e: wfic_render::limits::OutOfRange| e.for_option();
+        crate::bounds::RUNS.check(self.runs).map_err(range)?;
+        for &t in &self.threads {
+            wfic_render::limits::THREADS.check(t).map_err(range)?;
+        }
+        for &r in &self.ranks {
+            crate::bounds::RANKS.check(r).map_err(range)?;
+        }
+        crate::bounds::STRIDE.check(self.stride).map_err(range)?;
+        self.settings.validate().map_err(range)?;
+        Ok(())
+    }
+
     /// Frames in all (references included): the progress bar's length.
     pub fn frames(&self) -> usize {
         self.scenes.len() * self.runs * (1 + 2 * (self.threads.len() + self.ranks.len()))
@@ -75,14 +97,7 @@ pub fn run(
     machine: &Machine,
     progress: &mut dyn FnMut(&str),
 ) -> Result<Deterministic, String> {
-    if config.runs == 0 || config.threads.contains(&0) || config.scenes.is_empty() {
-        return Err(
-            "reproduce deterministic: --runs, --threads and --scenes must not be 0 or empty".into(),
-        );
-    }
-    if config.ranks.contains(&0) {
-        return Err("reproduce deterministic: --ranks must be at least 1".into());
-    }
+    config.validate()?;
     let launcher = if config.ranks.is_empty() {
         None
     } else {

@@ -6,6 +6,7 @@
 #![cfg(not(checker))]
 
 pub mod animation;
+pub mod bounds;
 pub mod cli;
 pub mod deterministic;
 pub mod distributed;

@@ -10,6 +10,7 @@ use std::fmt;
 use std::path::{Path, PathBuf};
 use wfic::cache::Scheme;
 use wfic_render::film::worker_colour;
+use wfic_render::limits;
 use wfic_render::{obj, render_with_scheme, scenes, Camera, Pool, RenderSettings, Scene};
 
 /// `--scheme` parses from the cache layer's list: names, and descriptions for `--help`.
@@ -37,15 +38,9 @@ pub fn pool_parser() -> impl TypedValueParser<Value = Pool> {
     })
 }
 
+/// A point `x,y,z`, each coordinate within [`limits::COORDINATE`].
 fn parse_vec3(s: &str) -> Result<Vec3, String> {
-    let parts: Vec<f32> = s
-        .split(',')
-        .map(|p| p.trim().parse::<f32>().map_err(|e| format!("`{p}`: {e}")))
-        .collect::<Result<_, _>>()?;
-    match parts[..] {
-        [x, y, z] if x.is_finite() && y.is_finite() && z.is_finite() => Ok(Vec3::new(x, y, z)),
-        _ => Err(format!("expected three finite numbers `x,y,z`, got `{s}`")),
-    }
+    crate::bounds::parse_point(s, limits::COORDINATE)
 }
 
 /// Arguments of `wfic render`.
@@ -214,11 +209,9 @@ pub fn load_scene(args: &RenderArgs) -> Result<Scene, RenderError> {
             .map_err(|e| RenderError::Usage(e.to_string()))?,
     };
     if let Some(t) = args.orbit {
-        if !t.is_finite() {
-            return Err(RenderError::Usage(format!(
-                "--orbit {t} is not a finite time"
-            )));
-        }
+        limits::ORBIT
+            .check(t)
+            .map_err(|e| RenderError::Usage(e.for_option()))?;
         scene.set_camera(Camera::orbit(&scene, t));
     }
     if args.eye.is_some() || args.target.is_some() {
@@ -233,37 +226,12 @@ pub fn load_scene(args: &RenderArgs) -> Result<Scene, RenderError> {
     Ok(scene)
 }
 
-/// Checks the arguments and builds the render settings.
+/// Checks the arguments against their ranges ([`wfic_render::limits`]; the parser has already
+/// done so for the command line's own) and builds the render settings.
 pub fn settings_from(args: &RenderArgs) -> Result<RenderSettings, RenderError> {
     let usage = |m: String| Err(RenderError::Usage(m));
-    if args.threads == 0 {
-        return usage("--threads must be at least 1".to_owned());
-    }
-    if args.width == 0 || args.height == 0 {
-        return usage(format!(
-            "image size {}x{} is empty: --width and --height must be at least 1",
-            args.width, args.height
-        ));
-    }
-    if args.rays_per_record == 0 {
-        return usage("--rays-per-record must be at least 1".to_owned());
-    }
-    if args.light_samples == 0 {
-        return usage("--light-samples must be at least 1".to_owned());
-    }
-    if args.spp == 0 {
-        return usage("--spp must be at least 1".to_owned());
-    }
-    if !(args.accuracy > 0.0 && args.accuracy <= 2.0) {
-        return usage(format!("--accuracy {} is not in (0, 2]", args.accuracy));
-    }
-    if !(args.smoothing >= 1.0 && args.smoothing * args.accuracy <= 2.0) {
-        return usage(format!(
-            "--smoothing {} must be at least 1, with --smoothing x --accuracy at most 2 (lookups \
-             interpolate at that accuracy)",
-            args.smoothing
-        ));
-    }
+    let out_of_range = |e: limits::OutOfRange| RenderError::Usage(e.for_option());
+    limits::THREADS.check(args.threads).map_err(out_of_range)?;
     if args.deterministic && args.no_share {
         return usage(
             "--deterministic cannot run with --no-share: its ranks exchange every pass's records, \
@@ -288,7 +256,50 @@ pub fn settings_from(args: &RenderArgs) -> Result<RenderSettings, RenderError> {
         .quiet(args.quiet)
         .pool(args.pool);
     settings.deterministic = args.deterministic;
+    settings.validate().map_err(out_of_range)?;
     Ok(settings)
+}
+
+/// Everything `wfic render` checks before it starts: the arguments, the scene, the cache's
+/// configuration, and that the machine can start the threads and hold the frame
+/// ([`crate::bounds::check_resources`]). `--dry-run` stops here.
+///
+/// # Errors
+/// Bad input, exit code 2.
+pub fn prepare(
+    args: &RenderArgs,
+) -> Result<(RenderSettings, Scene, wfic::cache::CacheConfig), RenderError> {
+    let settings = settings_from(args)?;
+    if args.distributed {
+        #[cfg(not(feature = "mpi"))]
+        return Err(no_mpi());
+        #[cfg(feature = "mpi")]
+        {
+            limits::FRAMES
+                .check(args.frames)
+                .map_err(|e| RenderError::Usage(e.for_option()))?;
+            exchange_from(args)
+                .validate()
+                .map_err(|e| RenderError::Usage(e.for_option()))?;
+        }
+    }
+    let scene = load_scene(args)?;
+    let config = settings
+        .cache_config(&scene)
+        .map_err(|e| RenderError::Usage(e.to_string()))?;
+    crate::bounds::check_resources(args.threads, Some((settings.width, settings.height)))
+        .map_err(RenderError::Usage)?;
+    Ok((settings, scene, config))
+}
+
+/// The MPI exchange the arguments ask for.
+#[cfg(feature = "mpi")]
+fn exchange_from(args: &RenderArgs) -> wfic_render::distributed::Exchange {
+    wfic_render::distributed::Exchange {
+        batch_records: args.batch_records,
+        batch_ms: args.batch_ms,
+        share: !args.no_share,
+    }
 }
 
 /// Runs `wfic render`.
@@ -296,11 +307,7 @@ pub fn run_render(args: RenderArgs) -> Result<(), RenderError> {
     if args.distributed {
         return run_distributed(args);
     }
-    let settings = settings_from(&args)?;
-    let scene = load_scene(&args)?;
-    let config = settings
-        .cache_config(&scene)
-        .map_err(|e| RenderError::Usage(e.to_string()))?;
+    let (settings, scene, config) = prepare(&args)?;
     let camera = scene.camera();
     if args.scheme == Scheme::Tra && args.threads > 1 {
         eprintln!(
@@ -387,19 +394,24 @@ pub fn run_render(args: RenderArgs) -> Result<(), RenderError> {
 
 #[cfg(not(feature = "mpi"))]
 fn run_distributed(_: RenderArgs) -> Result<(), RenderError> {
-    Err(RenderError::Usage(
+    Err(no_mpi())
+}
+
+#[cfg(not(feature = "mpi"))]
+fn no_mpi() -> RenderError {
+    RenderError::Usage(
         "--distributed needs wfic built with the `mpi` feature: install OpenMPI \
          (apt-get install libopenmpi-dev openmpi-bin libclang-dev), then \
          cargo build --release --features mpi, and run under mpirun -np R"
             .to_owned(),
-    ))
+    )
 }
 
 /// `wfic render --distributed`, on every rank of the job.
 #[cfg(feature = "mpi")]
 fn run_distributed(args: RenderArgs) -> Result<(), RenderError> {
     use mpi::traits::Communicator;
-    use wfic_render::distributed::{render_distributed_frames, Exchange};
+    use wfic_render::distributed::render_distributed_frames;
     let Some((universe, threading)) = mpi::initialize_with_threading(mpi::Threading::Multiple)
     else {
         return Err(RenderError::Usage("MPI was initialised already".to_owned()));
@@ -421,11 +433,7 @@ fn run_distributed(args: RenderArgs) -> Result<(), RenderError> {
         mpi::topology::SimpleCommunicator::world().abort(101);
     }));
     let (settings, scene, config) = distributed_setup(&world, &args)?;
-    let exchange = Exchange {
-        batch_records: args.batch_records,
-        batch_ms: args.batch_ms,
-        share: !args.no_share,
-    };
+    let exchange = exchange_from(&args);
     let cameras: Vec<Camera> = if args.frames == 1 {
         vec![scene.camera()]
     } else {
@@ -500,17 +508,7 @@ fn distributed_setup(
                 args.scheme
             )));
         }
-        if args.batch_records == 0 {
-            return Err(RenderError::Usage(
-                "--batch-records must be at least 1".to_owned(),
-            ));
-        }
-        let settings = settings_from(args)?;
-        let scene = load_scene(args)?;
-        let config = settings
-            .cache_config(&scene)
-            .map_err(|e| RenderError::Usage(e.to_string()))?;
-        Ok((settings, scene, config))
+        prepare(args)
     };
     let ready = setup();
     let ok = u8::from(ready.is_ok());
@@ -533,12 +531,6 @@ fn distributed_setup(
         }
         Ok(ready) => ready,
     };
-    if args.frames == 0 {
-        return Err(refuse(
-            world,
-            format!("rank {rank}: --frames must be at least 1"),
-        ));
-    }
     Ok(ready)
 }
 

@@ -1,6 +1,7 @@
 //! `wfic reproduce ...` and `wfic compare ...`: arguments, progress, output.
 
 use crate::animation::{self, AnimationConfig};
+use crate::bounds::check_resources;
 use crate::deterministic::{self, DeterministicConfig};
 use crate::distributed::{self, DistributedConfig};
 use crate::dynamic::{self, DynamicConfig};
@@ -11,7 +12,7 @@ use crate::radiance::{self, RadianceConfig};
 use crate::table1::{self, Table1Config};
 use std::path::PathBuf;
 use wfic::cache::Scheme;
-use wfic_render::RenderSettings;
+use wfic_render::{limits, RenderSettings};
 
 /// Primary rays per pixel in the experiments.
 pub const SPP: u32 = 4;
@@ -93,14 +94,16 @@ pub struct SizeArgs {
 }
 
 impl SizeArgs {
-    /// The size, `width` standing in for a missing width; refused when empty.
+    /// The size, `width` standing in for a missing width, each side and the pixels within
+    /// [`limits::WIDTH`], [`limits::HEIGHT`] and [`limits::PIXELS`].
     pub fn get(&self, width: u32) -> Result<(u32, u32), String> {
-        let width = self.width.unwrap_or(width);
-        let h = self.height.unwrap_or(width);
-        if width == 0 || h == 0 {
-            return Err(format!("image size {width}x{h} is empty"));
-        }
-        Ok((width, h))
+        let w = self.width.unwrap_or(width);
+        let h = self.height.unwrap_or(w);
+        let range = |e: limits::OutOfRange| e.for_option();
+        limits::WIDTH.check(w).map_err(range)?;
+        limits::HEIGHT.check(h).map_err(range)?;
+        RenderSettings::new(w, h).validate().map_err(range)?;
+        Ok((w, h))
     }
 }
 
@@ -198,21 +201,15 @@ pub struct SamplingArgs {
 }
 
 impl SamplingArgs {
-    /// Render settings for a `width` x `height` image, after checking every count is at least 1.
+    /// Render settings for a `width` x `height` image, checked against their ranges
+    /// ([`RenderSettings::validate`]).
     pub fn settings(&self, (width, height): (u32, u32)) -> Result<RenderSettings, String> {
-        for (name, v) in [
-            ("--rays-per-record", self.rays_per_record),
-            ("--spp", self.spp),
-            ("--light-samples", self.light_samples),
-        ] {
-            if v == 0 {
-                return Err(format!("{name} must be at least 1"));
-            }
-        }
-        Ok(RenderSettings::new(width, height)
+        let settings = RenderSettings::new(width, height)
             .rays_per_record(self.rays_per_record)
             .pixel_samples(self.spp)
-            .light_samples(self.light_samples))
+            .light_samples(self.light_samples);
+        settings.validate().map_err(|e| e.for_option())?;
+        Ok(settings)
     }
 }
 
@@ -290,7 +287,12 @@ fn print_checks(checks: &[Check]) {
     }
 }
 
-fn table1(a: Table1Args, machine: &Machine) -> Result<(), String> {
+/// The most threads of `counts` (1 when empty).
+fn most(counts: &[usize]) -> usize {
+    counts.iter().copied().max().unwrap_or(1)
+}
+
+fn table1(a: Table1Args, machine: &Machine, dry_run: bool) -> Result<(), String> {
     let (w, h) = a.size.get(if a.quick { 160 } else { 320 })?;
     let runs = or_quick(a.runs, a.quick, (3, 5));
     let paper = Table1Config::paper(w, h, runs);
@@ -306,6 +308,11 @@ fn table1(a: Table1Args, machine: &Machine) -> Result<(), String> {
         controls: a.controls.unwrap_or(true),
         ..paper
     };
+    config.validate()?;
+    check_resources(most(&config.threads), Some((w, h)))?;
+    if dry_run {
+        return Ok(());
+    }
     println!("{}", machine.banner(&config.thread_counts()));
     let progress = Progress::new(config.total_frames(), a.output.quiet);
     let t = progress.run(|p| table1::run(&config, machine, p))?;
@@ -327,20 +334,15 @@ fn table1(a: Table1Args, machine: &Machine) -> Result<(), String> {
     Ok(())
 }
 
-fn distributed(a: DistributedArgs, machine: &Machine) -> Result<(), String> {
+fn distributed(a: DistributedArgs, machine: &Machine, dry_run: bool) -> Result<(), String> {
     let (w, h) = a.size.get(if a.quick { 96 } else { 256 })?;
     let rays = or_quick(a.rays_per_record, a.quick, (128, 512));
-    if rays == 0 || a.light_samples == 0 {
-        return Err("--rays-per-record and --light-samples must be at least 1".to_owned());
-    }
-    if !(a.accuracy.is_finite() && a.accuracy > 0.0) {
-        return Err(format!("--accuracy {} is not a number above 0", a.accuracy));
-    }
     let settings = RenderSettings::new(w, h)
         .rays_per_record(rays)
         .light_samples(a.light_samples)
         .accuracy(a.accuracy)
         .quiet(true);
+    settings.validate().map_err(|e| e.for_option())?;
     let config = DistributedConfig {
         scene: a.scene.clone(),
         settings,
@@ -357,6 +359,11 @@ fn distributed(a: DistributedArgs, machine: &Machine) -> Result<(), String> {
         radiance: !a.no_radiance,
         animation_frames: or_quick(a.frames, a.quick, (4, 12)),
     };
+    config.validate()?;
+    check_resources(1, Some((w, h)))?;
+    if dry_run {
+        return Ok(());
+    }
     println!("{}", machine.banner_with_ranks(&[], &config.rank_counts()));
     let quiet = a.output.quiet;
     let progress = Progress::new(config.jobs(), quiet).echo(quiet);
@@ -373,7 +380,7 @@ fn distributed(a: DistributedArgs, machine: &Machine) -> Result<(), String> {
     Ok(())
 }
 
-fn dynamic(a: DynamicArgs, machine: &Machine) -> Result<(), String> {
+fn dynamic(a: DynamicArgs, machine: &Machine, dry_run: bool) -> Result<(), String> {
     let (w, h) = a.size.get(if a.quick { 64 } else { 128 })?;
     let mut sampling = a.sampling.clone();
     if a.quick {
@@ -391,6 +398,11 @@ fn dynamic(a: DynamicArgs, machine: &Machine) -> Result<(), String> {
         passes: or_quick(a.passes, a.quick, (1, 3)),
         sweep: or_quick(a.sweep, a.quick, (vec![4.0], vec![0.5, 2.0, 4.0, 8.0])),
     };
+    config.validate()?;
+    check_resources(config.threads, Some((w, h)))?;
+    if dry_run {
+        return Ok(());
+    }
     println!("{}", machine.banner(&config.thread_counts()));
     let progress = Progress::new(config.total_frames(), a.output.quiet);
     let start = std::time::Instant::now();
@@ -405,7 +417,7 @@ fn dynamic(a: DynamicArgs, machine: &Machine) -> Result<(), String> {
     Ok(())
 }
 
-fn animation(a: AnimationArgs, machine: &Machine) -> Result<(), String> {
+fn animation(a: AnimationArgs, machine: &Machine, dry_run: bool) -> Result<(), String> {
     let (w, h) = a.size.get(160)?;
     let config = AnimationConfig {
         scene: a.scene.clone(),
@@ -414,6 +426,11 @@ fn animation(a: AnimationArgs, machine: &Machine) -> Result<(), String> {
         schemes: a.schemes.unwrap_or(Scheme::CACHED.to_vec()),
         settings: a.sampling.settings((w, h))?,
     };
+    config.validate()?;
+    check_resources(config.threads, Some((w, h)))?;
+    if dry_run {
+        return Ok(());
+    }
     println!("{}", machine.banner(&config.thread_counts()));
     let frames = config.frames * config.schemes.len();
     let progress = Progress::new(frames, a.output.quiet);
@@ -436,15 +453,12 @@ fn animation(a: AnimationArgs, machine: &Machine) -> Result<(), String> {
     Ok(())
 }
 
-fn deterministic(a: DeterministicArgs, machine: &Machine) -> Result<(), String> {
+fn deterministic(a: DeterministicArgs, machine: &Machine, dry_run: bool) -> Result<(), String> {
     let (w, h) = a.size.get(if a.quick { 128 } else { 256 })?;
     let mut sampling = a.sampling.clone();
     if a.quick {
         sampling.spp = 1;
         sampling.rays_per_record = sampling.rays_per_record.min(128);
-    }
-    if a.stride == 0 {
-        return Err("--stride must be at least 1".to_owned());
     }
     let config = DeterministicConfig {
         scenes: a
@@ -460,6 +474,11 @@ fn deterministic(a: DeterministicArgs, machine: &Machine) -> Result<(), String> 
             Vec::new()
         }),
     };
+    config.validate()?;
+    check_resources(most(&config.threads), Some((w, h)))?;
+    if dry_run {
+        return Ok(());
+    }
     let ranks: Vec<(usize, usize)> = config.ranks.iter().map(|&r| (r, 1)).collect();
     println!("{}", machine.banner_with_ranks(&config.threads, &ranks));
     let progress = Progress::new(config.frames(), a.output.quiet).echo(a.output.quiet);
@@ -475,15 +494,15 @@ fn deterministic(a: DeterministicArgs, machine: &Machine) -> Result<(), String> 
     Ok(())
 }
 
-/// Runs `wfic reproduce ...`.
-pub fn run(command: ReproduceCommand) -> Result<(), String> {
+/// Runs `wfic reproduce ...`; with `dry_run`, only checks its arguments and resources.
+pub fn run(command: ReproduceCommand, dry_run: bool) -> Result<(), String> {
     let machine = Machine::detect();
     match command {
-        ReproduceCommand::Table1(a) => table1(a, &machine),
-        ReproduceCommand::Distributed(a) => distributed(a, &machine),
-        ReproduceCommand::Dynamic(a) => dynamic(a, &machine),
-        ReproduceCommand::Animation(a) => animation(a, &machine),
-        ReproduceCommand::Deterministic(a) => deterministic(a, &machine),
+        ReproduceCommand::Table1(a) => table1(a, &machine, dry_run),
+        ReproduceCommand::Distributed(a) => distributed(a, &machine, dry_run),
+        ReproduceCommand::Dynamic(a) => dynamic(a, &machine, dry_run),
+        ReproduceCommand::Animation(a) => animation(a, &machine, dry_run),
+        ReproduceCommand::Deterministic(a) => deterministic(a, &machine, dry_run),
     }
 }
 
@@ -527,16 +546,16 @@ pub struct RadianceArgs {
     pub repeats: Option<u32>,
 }
 
-/// Sets `field` to `value` when given, refusing a value below `min`.
-fn set_at_least(field: &mut u32, value: Option<u32>, min: u32, name: &str) -> Result<(), String> {
-    match value {
-        Some(v) if v < min => Err(format!("{name} must be at least {min}")),
-        Some(v) => {
-            *field = v;
-            Ok(())
-        }
-        None => Ok(()),
+/// Sets `field` to `value` when given and inside `limit`.
+fn set_within(
+    field: &mut u32,
+    value: Option<u32>,
+    limit: limits::Limit<u32>,
+) -> Result<(), String> {
+    if let Some(v) = value {
+        *field = limit.check(v).map_err(|e| e.for_option())?;
     }
+    Ok(())
 }
 
 /// The comparison's configuration from its arguments, refusing what cannot run.
@@ -564,24 +583,34 @@ fn radiance_config(a: &RadianceArgs) -> Result<RadianceConfig, String> {
     if a.size.width.is_some() || a.size.height.is_some() {
         config.size = a.size.get(config.size.0)?;
     }
-    set_at_least(&mut config.rays, a.rays_per_record, 16, "--rays-per-record")?;
+    set_within(
+        &mut config.rays,
+        a.rays_per_record,
+        crate::bounds::RADIANCE_RAYS,
+    )?;
     if let Some(acc) = a.accuracy {
-        if !(acc > 0.0 && acc <= 2.0) {
-            return Err(format!("--accuracy {acc} is not in (0, 2]"));
-        }
-        config.accuracy = acc;
+        config.accuracy = limits::ACCURACY.check(acc).map_err(|e| e.for_option())?;
     }
-    set_at_least(&mut config.resolution, a.resolution, 1, "--resolution")?;
+    set_within(
+        &mut config.resolution,
+        a.resolution,
+        crate::bounds::RESOLUTION,
+    )?;
     config.keep_work = a.keep_work;
-    set_at_least(&mut config.repeats, a.repeats, 1, "--repeats")?;
+    set_within(&mut config.repeats, a.repeats, crate::bounds::REPEATS)?;
     Ok(config)
 }
 
-/// Runs `wfic compare ...`.
-pub fn run_compare(command: CompareCommand) -> Result<(), String> {
+/// Runs `wfic compare ...`; with `dry_run`, only checks its arguments and resources.
+pub fn run_compare(command: CompareCommand, dry_run: bool) -> Result<(), String> {
     match command {
         CompareCommand::Radiance(a) => {
             let config = radiance_config(&a)?;
+            // wfic renders at 1 and 2 threads.
+            check_resources(2, Some(config.size))?;
+            if dry_run {
+                return Ok(());
+            }
             radiance::run(&config, &a.out_dir, &command_line())
         }
     }

@@ -162,7 +162,7 @@ fn bad_input_is_refused_with_exit_code_2() {
     let out = wfic(&["reproduce", "table1", "--scenes", "atrium", "--out-dir", d]);
     assert!(String::from_utf8_lossy(&out.stderr).contains("atrium"));
     let out = wfic(&["reproduce", "table1", "--spp", "0", "--out-dir", d]);
-    assert!(String::from_utf8_lossy(&out.stderr).contains("--spp must be at least 1"));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("'--spp <SPP>': 0 is not in [1, 4096]"));
     assert!(!dir.join("table1.md").exists());
     std::fs::remove_dir_all(&dir).ok();
 }

@@ -195,7 +195,8 @@ impl Pass {
 ///
 /// # Panics
 /// If the cache's scheme is WF `Discard` ([`Scheme::is_deterministic`]): it drops records by
-/// the schedule. The command line refuses that combination before it gets here.
+/// the schedule. The command line refuses that combination before it gets here. As
+/// [`crate::render_frame`] for settings out of their ranges.
 pub fn render<C: IrradianceCache>(
     scene: &Scene,
     camera: &Camera,
@@ -204,6 +205,7 @@ pub fn render<C: IrradianceCache>(
     threads: usize,
     removal: Option<&Selection>,
 ) -> FrameResult {
+    settings.assert_valid(threads);
     let start = Instant::now();
     let scheme = cache.scheme();
     assert!(

@@ -69,6 +69,25 @@ pub struct Exchange {
     pub share: bool,
 }
 
+impl Exchange {
+    /// Checks the batches against [`crate::limits::BATCH_RECORDS`] and
+    /// [`crate::limits::BATCH_MS`].
+    ///
+    /// # Errors
+    /// The first one out of its range.
+    pub fn validate(&self) -> Result<(), crate::limits::OutOfRange> {
+        crate::limits::BATCH_RECORDS.check(self.batch_records)?;
+        crate::limits::BATCH_MS.check(self.batch_ms)?;
+        Ok(())
+    }
+
+    fn assert_valid(&self) {
+        if let Err(e) = self.validate() {
+            panic!("invalid exchange: {e}");
+        }
+    }
+}
+
 impl Default for Exchange {
     fn default() -> Self {
         Self {
@@ -494,6 +513,10 @@ pub fn render_distributed(
 /// # Errors
 /// [`DistributedError::Mismatch`] on every rank when the ranks' scenes, cameras or settings
 /// differ.
+///
+/// # Panics
+/// As [`crate::render_frame`] for settings out of their ranges, and with `invalid exchange: ...`
+/// if a batch is out of [`crate::limits::BATCH_RECORDS`] or [`crate::limits::BATCH_MS`].
 #[allow(clippy::too_many_arguments)]
 pub fn render_distributed_frames(
     world: &SimpleCommunicator,
@@ -505,6 +528,8 @@ pub fn render_distributed_frames(
     exchange: &Exchange,
     fail: Option<(u32, bool)>,
 ) -> Result<Option<Vec<DistributedFrame>>, DistributedError> {
+    settings.assert_valid(threads);
+    exchange.assert_valid();
     let rank = world.rank() as u32;
     if cameras.is_empty() {
         return Ok((rank == 0).then(Vec::new));

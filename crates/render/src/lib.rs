@@ -62,6 +62,7 @@ pub mod film;
 pub mod flat;
 pub mod integrator;
 pub mod lights;
+pub mod limits;
 pub mod obj;
 pub mod parallel;
 pub mod sampler;
@@ -78,5 +79,5 @@ pub use parallel::{
     FrameResult,
 };
 pub use scene::{Material, Scene, SceneBuilder, SceneError};
-pub use settings::{Pool, RenderSettings};
+pub use settings::{Pool, RenderSettings, SettingsError};
 pub use stats::FrameStats;

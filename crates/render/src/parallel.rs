@@ -50,6 +50,10 @@ fn progress_bar(tiles: usize, quiet: bool, label: &str) -> ProgressBar {
 /// with them (the paper's §4.2). With [`wfic::cache::Sequential`] (TRA) a worker holds the
 /// octree for the whole frame, so extra workers only wait: use one thread. With
 /// [`NoCache`] the frame is the reference: the indirect term is estimated at every primary hit.
+///
+/// # Panics
+/// With `invalid render settings: ...` if [`RenderSettings::validate`] refuses `settings` or
+/// `threads` is above [`crate::limits::THREADS`]; if a worker panics.
 pub fn render_frame<C: IrradianceCache>(
     scene: &Scene,
     camera: &Camera,
@@ -65,6 +69,9 @@ pub fn render_frame<C: IrradianceCache>(
 /// that changed since the cache's last frame. With `settings.deterministic` the frame is
 /// [`crate::deterministic::render`]'s, which removes before its first pass. The frame's time includes the removal; the
 /// statistics count what it took ([`FrameStats::removed`]).
+///
+/// # Panics
+/// As [`render_frame`].
 pub fn render_frame_removing<C: IrradianceCache>(
     scene: &Scene,
     camera: &Camera,
@@ -73,6 +80,7 @@ pub fn render_frame_removing<C: IrradianceCache>(
     threads: usize,
     removal: Option<&Selection>,
 ) -> FrameResult {
+    settings.assert_valid(threads);
     if settings.deterministic {
         return crate::deterministic::render(scene, camera, settings, cache, threads, removal);
     }
@@ -187,6 +195,9 @@ pub fn render_reference(
 /// depend on the seed and the pixel only), at `1 / stride^2` of the cost: for error measures
 /// against a brute-force image too slow to compute whole (`wfic compare radiance`). Returns the
 /// image and the wall-clock seconds.
+///
+/// # Panics
+/// As [`render_frame`].
 pub fn render_reference_grid(
     scene: &Scene,
     camera: &Camera,
@@ -195,6 +206,7 @@ pub fn render_reference_grid(
     threads: usize,
     stride: u32,
 ) -> (Image, f64) {
+    settings.assert_valid(threads);
     let start = Instant::now();
     let mut cache = NoCache::new(config);
     let integrator = PixelIntegrator::new(scene, camera, settings, config.accuracy());
@@ -238,6 +250,31 @@ mod tests {
     use super::*;
     use crate::scenes;
     use glam::Vec3;
+
+    /// Settings out of their ranges, and too many threads, stop a render with the documented
+    /// message before it starts.
+    #[test]
+    fn a_render_refuses_settings_out_of_range_with_the_documented_message() {
+        let (scene, camera, settings, config) = cornell();
+        for (bad, threads, expected) in [
+            (
+                settings.clone().pixel_samples(0),
+                1,
+                "invalid render settings: pixel_samples 0 is not in [1, 4096]",
+            ),
+            (
+                settings.clone(),
+                1025,
+                "invalid render settings: threads 1025 is not in [1, 1024]",
+            ),
+        ] {
+            let panic = std::panic::catch_unwind(|| {
+                render_reference(&scene, &camera, &bad, config, threads)
+            })
+            .expect_err("refused");
+            assert_eq!(panic.downcast_ref::<String>().unwrap(), expected);
+        }
+    }
 
     /// A small, cheap Cornell box frame.
     fn cornell() -> (Scene, Camera, RenderSettings, CacheConfig) {

@@ -1,7 +1,9 @@
 //! How a frame is rendered ([`RenderSettings`]) and where its workers run ([`Pool`]): plain
 //! settings that the integrator, the render loops and the statistics read.
 
+use super::limits::{self, OutOfRange};
 use super::scene::Scene;
+use std::fmt;
 use wfic::cache::{CacheConfig, ConfigError};
 
 /// Where a frame's workers run.
@@ -152,16 +154,72 @@ impl RenderSettings {
         self
     }
 
+    /// Checks every field against its range in [`crate::limits`]: the image's sides and its
+    /// pixels, the accuracy, the smoothing (and `smoothing x accuracy` at most
+    /// [`CacheConfig::MAX_ACCURACY`]), the sample counts, the tile size and the radius clamps.
+    /// The render functions panic on settings this refuses.
+    ///
+    /// # Errors
+    /// The first field out of its range, named with the value and the range.
+    pub fn validate(&self) -> Result<(), OutOfRange> {
+        limits::WIDTH.check(self.width)?;
+        limits::HEIGHT.check(self.height)?;
+        let pixels = u64::from(self.width) * u64::from(self.height);
+        limits::PIXELS.check(pixels).map_err(|e| OutOfRange {
+            value: format!("{} x {} = {pixels}", self.width, self.height),
+            ..e
+        })?;
+        limits::ACCURACY.check(self.accuracy)?;
+        limits::SMOOTHING.check(self.smoothing)?;
+        if self.smoothing * self.accuracy > CacheConfig::MAX_ACCURACY {
+            return Err(OutOfRange {
+                setting: limits::SMOOTHING.setting,
+                option: limits::SMOOTHING.option,
+                value: self.smoothing.to_string(),
+                range: format!(
+                    "[1, {}] (smoothing x accuracy at most {})",
+                    CacheConfig::MAX_ACCURACY / self.accuracy,
+                    CacheConfig::MAX_ACCURACY
+                ),
+            });
+        }
+        limits::RAYS_PER_RECORD.check(self.rays_per_record)?;
+        limits::LIGHT_SAMPLES.check(self.light_samples)?;
+        limits::PIXEL_SAMPLES.check(self.pixel_samples)?;
+        limits::TILE_SIZE.check(self.tile_size)?;
+        for r in [self.min_radius_pixels, self.max_radius_pixels] {
+            limits::RADIUS_PIXELS.check(r)?;
+        }
+        for r in [self.min_radius_scene, self.max_radius_scene] {
+            limits::RADIUS_SCENE.check(r)?;
+        }
+        Ok(())
+    }
+
     /// A cache configuration for `scene`: its bounds enlarged by 1% of the diagonal on every
     /// side (so points on the outer walls are well inside), at the accuracy lookups interpolate
-    /// at, `smoothing * accuracy`. A smoothing below 1 (or not finite) is refused.
-    pub fn cache_config(&self, scene: &Scene) -> Result<CacheConfig, ConfigError> {
-        if !(self.smoothing >= 1.0 && self.smoothing.is_finite()) {
-            return Err(ConfigError::Smoothing(self.smoothing));
-        }
+    /// at, `smoothing * accuracy`.
+    ///
+    /// # Errors
+    /// Settings [`RenderSettings::validate`] refuses, or a scene whose bounds are not finite.
+    pub fn cache_config(&self, scene: &Scene) -> Result<CacheConfig, SettingsError> {
+        self.validate().map_err(SettingsError::Range)?;
         let (lo, hi) = scene.bounds();
         let margin = 0.01 * scene.diagonal();
         CacheConfig::new(lo - margin, hi + margin, self.accuracy * self.smoothing)
+            .map_err(SettingsError::Cache)
+    }
+
+    /// Panics with `invalid render settings: ...` unless [`RenderSettings::validate`] accepts
+    /// these settings and `threads` (0 counts as 1) is within [`limits::THREADS`]: what every
+    /// render function does first.
+    pub(crate) fn assert_valid(&self, threads: usize) {
+        if let Err(e) = self
+            .validate()
+            .and_then(|()| limits::THREADS.check(threads.max(1)).map(|_| ()))
+        {
+            panic!("invalid render settings: {e}");
+        }
     }
 
     /// The radius clamps at a point whose pixel footprint is `footprint`, for a scene of size
@@ -172,5 +230,99 @@ impl RenderSettings {
             .min(self.max_radius_scene * diagonal)
             .max(r_min);
         (r_min, r_max)
+    }
+}
+
+/// Why [`RenderSettings::cache_config`] gave no configuration.
+#[derive(Clone, Debug, PartialEq)]
+pub enum SettingsError {
+    /// A setting out of its range.
+    Range(OutOfRange),
+    /// The cache refused the configuration (a scene whose bounds are not finite).
+    Cache(ConfigError),
+}
+
+impl fmt::Display for SettingsError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::Range(e) => e.fmt(f),
+            Self::Cache(e) => e.fmt(f),
+        }
+    }
+}
+
+impl std::error::Error for SettingsError {}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every field's edges pass and one step beyond fails, naming the field.
+    #[test]
+    fn validate_admits_every_edge_and_names_the_field_beyond_it() {
+        let ok = RenderSettings::new(16, 16);
+        assert_eq!(ok.validate(), Ok(()));
+        type Edit = fn(&mut RenderSettings, bool);
+        let edits: [(&str, Edit); 10] = [
+            ("width", |s, out| {
+                s.width = if out { 16_385 } else { 16_384 }
+            }),
+            ("height", |s, out| s.height = if out { 0 } else { 1 }),
+            ("accuracy", |s, out| {
+                s.accuracy = if out { 2.000_001 } else { 2.0 }
+            }),
+            ("smoothing", |s, out| {
+                s.smoothing = if out { 0.999 } else { 1.0 }
+            }),
+            ("rays_per_record", |s, out| {
+                s.rays_per_record = if out { 65_537 } else { 65_536 }
+            }),
+            ("light_samples", |s, out| {
+                s.light_samples = if out { 0 } else { 4096 }
+            }),
+            ("pixel_samples", |s, out| {
+                s.pixel_samples = if out { 4097 } else { 1 }
+            }),
+            ("tile_size", |s, out| {
+                s.tile_size = if out { 0 } else { 1024 }
+            }),
+            ("radius in pixels", |s, out| {
+                s.max_radius_pixels = if out { f32::NAN } else { 1.0e6 }
+            }),
+            ("radius in scene", |s, out| {
+                s.min_radius_scene = if out { 0.0 } else { 1.0 }
+            }),
+        ];
+        for (field, edit) in edits {
+            let mut s = ok.clone();
+            edit(&mut s, false);
+            assert_eq!(s.validate(), Ok(()), "{field} at its edge");
+            edit(&mut s, true);
+            assert_eq!(s.validate().unwrap_err().setting, field);
+        }
+    }
+
+    /// The pixel count is bounded beyond each side's, and the smoothing jointly with the
+    /// accuracy, both with a message that says which rule.
+    #[test]
+    fn the_joint_rules_name_both_values() {
+        let big = RenderSettings::new(8192, 8193);
+        assert_eq!(
+            big.validate().unwrap_err().for_option(),
+            "--width x --height 8192 x 8193 = 67117056 is not in [1, 67108864]"
+        );
+        assert_eq!(RenderSettings::new(8192, 8192).validate(), Ok(()));
+        let wide = RenderSettings::new(4, 4).accuracy(1.0).smoothing(2.5);
+        assert_eq!(
+            wide.validate().unwrap_err().to_string(),
+            "smoothing 2.5 is not in [1, 2] (smoothing x accuracy at most 2)"
+        );
+        assert_eq!(
+            RenderSettings::new(4, 4)
+                .accuracy(1.0)
+                .smoothing(2.0)
+                .validate(),
+            Ok(())
+        );
     }
 }

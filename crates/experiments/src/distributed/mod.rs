@@ -74,6 +74,27 @@ const SHARED: &str = "2 ranks x 1 thread, shared";
 const ALONE: &str = "2 ranks x 1 thread, independent";
 
 impl DistributedConfig {
+    /// Refuses a configuration that cannot run: runs and batches out of their ranges
+    /// ([`crate::bounds`], [`wfic_render::limits`]).
+    ///
+    /// # Errors
+    /// The argument at fault, named with its range.
+    pub fn validate(&self) -> Result<(), String> {
+        let range = |e: wfic_render::limits::OutOfRange| e.for_option();
+        crate::bounds::RUNS.check(self.runs).map_err(range)?;
+        for &b in self.batches.iter().chain([&self.batch_records]) {
+            wfic_render::limits::BATCH_RECORDS.check(b).map_err(range)?;
+        }
+        wfic_render::limits::BATCH_MS
+            .check(self.batch_ms)
+            .map_err(range)?;
+        crate::bounds::ORBIT_FRAMES
+            .check(self.animation_frames)
+            .map_err(range)?;
+        self.settings.validate().map_err(range)?;
+        Ok(())
+    }
+
     /// The main jobs: 1 x 2, 2 x 1 shared, 2 x 1 independent, 4 x 1 shared.
     pub fn layouts(&self) -> [Layout; 4] {
         let layout = |label, ranks, threads, share| Layout {
@@ -413,9 +434,7 @@ pub fn run(
     out_dir: &Path,
     progress: &mut dyn FnMut(&str),
 ) -> Result<Distributed, String> {
-    if config.runs == 0 || config.batches.contains(&0) || config.batch_records == 0 {
-        return Err("--runs and every batch size must be at least 1".to_owned());
-    }
+    config.validate()?;
     let scene: Scene = scenes::load(&config.scene)?;
     let launcher = Launcher::find()?;
     let bin = config.radiance.then(RadianceBin::find).transpose()?;

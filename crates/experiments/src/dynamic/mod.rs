@@ -61,29 +61,36 @@ impl DynamicConfig {
     }
 
     /// Refuses a configuration that cannot run, naming the argument.
-    fn validate(&self) -> Result<(), String> {
+    ///
+    /// # Errors
+    /// The argument at fault, named.
+    pub fn validate(&self) -> Result<(), String> {
         if self.scene != SCENE {
             return Err(format!(
                 "reproduce dynamic: unknown scene {:?}; the one moving scene is {SCENE:?}",
                 self.scene
             ));
         }
-        if self.frames < 2 {
-            return Err(format!(
-                "reproduce dynamic: --frames {} is too few: removal needs a frame after the first",
-                self.frames
-            ));
+        let range = |e: wfic_render::limits::OutOfRange| {
+            format!(
+                "reproduce dynamic: {} (removal needs a frame after the first; a tolerance is a \
+                 multiple of the accuracy)",
+                e.for_option()
+            )
+        };
+        crate::bounds::SLIDE_FRAMES
+            .check(self.frames)
+            .map_err(range)?;
+        wfic_render::limits::THREADS
+            .check(self.threads)
+            .map_err(range)?;
+        crate::bounds::PASSES.check(self.passes).map_err(range)?;
+        for &k in &self.sweep {
+            crate::bounds::TOLERANCE.check(k).map_err(range)?;
         }
-        if self.threads == 0 || self.schemes.is_empty() {
-            return Err("reproduce dynamic: --threads and --schemes must not be empty".to_owned());
-        }
-        if self.passes == 0 {
-            return Err("reproduce dynamic: --passes 0 times nothing; give 1 or more".to_owned());
-        }
-        if let Some(k) = self.sweep.iter().find(|k| !(k.is_finite() && **k > 0.0)) {
-            return Err(format!(
-                "reproduce dynamic: --sweep {k} is no tolerance: give multiples of the accuracy above 0"
-            ));
+        self.settings.validate().map_err(range)?;
+        if self.schemes.is_empty() {
+            return Err("reproduce dynamic: --schemes must not be empty".to_owned());
         }
         if self.schemes.contains(&Scheme::None) {
             return Err("reproduce dynamic: `none` keeps no records; it is every frame's reference, always rendered".to_owned());

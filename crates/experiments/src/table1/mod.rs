@@ -110,17 +110,23 @@ impl Table1Config {
     }
 
     /// Refuses a configuration that cannot run.
-    fn validate(&self) -> Result<(), String> {
-        if self.runs == 0 {
-            return Err("--runs must be at least 1".to_owned());
-        }
+    ///
+    /// # Errors
+    /// The argument at fault, named.
+    pub fn validate(&self) -> Result<(), String> {
+        let range = |e: wfic_render::limits::OutOfRange| e.for_option();
+        crate::bounds::RUNS.check(self.runs).map_err(range)?;
+        crate::bounds::PAIRED_RUNS
+            .check(self.paired_runs)
+            .map_err(range)?;
         if self.paired_runs < self.runs {
             let (p, r) = (self.paired_runs, self.runs);
             return Err(format!("--paired-runs {p} is fewer than --runs {r}"));
         }
-        if self.threads.contains(&0) {
-            return Err("thread counts must be at least 1".to_owned());
+        for &t in &self.threads {
+            wfic_render::limits::THREADS.check(t).map_err(range)?;
         }
+        self.settings.validate().map_err(range)?;
         Ok(())
     }
 }
