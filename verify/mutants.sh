@@ -18,6 +18,9 @@
 #   bash verify/mutants.sh render-tiles|render-distributed  (the renderer's tile loop and work
 #                                                            source; its MPI exchange, with the
 #                                                            mpi feature: needs OpenMPI, as CI)
+#   bash verify/mutants.sh bounds|render-limits              (the lines of src/cache the command
+#                                                            line's bounds changed; the renderer's
+#                                                            ranges and their validation)
 #   bash verify/mutants.sh summary SCOPE                    (rewrite SCOPE's summary.md)
 #
 # Each scope runs as a cascade: every mutant is first tested against the fastest suite that can
@@ -144,6 +147,8 @@ removal_base=22179d0
 work_base=ac128b0
 # The commit before deterministic frames (issue 40): deterministic mutates the lines changed since.
 deterministic_base=b4ee339
+# The commit before the command line's bounds (issue 44): bounds mutates the lines changed since.
+bounds_base=83693a4
 # diff_of SCOPE: the --in-diff options of a *-removal scope (the diff is kept beside its results).
 diff_of() {
     local scope=$1 out="$root/results/mutants/$1"
@@ -153,6 +158,7 @@ diff_of() {
         lincheck-removal) git diff "$removal_base" -- src/research/lincheck > "$out/diff.patch" ;;
         cache-work) git diff "$work_base" -- 'src/cache/*.rs' > "$out/diff.patch" ;;
         deterministic) git diff "$deterministic_base" -- src/cache src/ic > "$out/diff.patch" ;;
+        bounds) git diff "$bounds_base" -- src/cache > "$out/diff.patch" ;;
         *) return 0 ;;
     esac
     echo --in-diff "$out/diff.patch"
@@ -170,6 +176,8 @@ filter_of() {
         cache-lookup) echo 'src/cache/{octree,sequential}.rs' ;;
         cache-removal | cache-work) echo 'src/cache/*.rs' ;;
         deterministic) echo 'src/**' ;;
+        bounds) echo 'src/cache/*.rs' ;;
+        render-limits) echo 'crates/render/src/{limits,settings}.rs' ;;
         ic | ic-removal) echo 'src/ic/**' ;;
         lincheck | lincheck-removal) echo 'src/research/lincheck/**' ;;
         render-tiles) echo 'crates/render/src/parallel.rs' ;;
@@ -181,6 +189,7 @@ filter_of() {
 list_args_of() {
     case $1 in
         render-tiles) echo --workspace -f crates/render/src/work.rs ;;
+        render-limits) echo --workspace -f crates/render/src/settings.rs ;;
         render-distributed) echo --workspace --features mpi ;;
     esac
 }
@@ -285,6 +294,18 @@ run_scope() {
             stage "$scope" yes "${f[@]}" --test-package wfic-render --cargo-arg=--release --cargo-arg=--lib
             stage "$scope" no "${f[@]}" --test-package wfic-experiments --cargo-arg=--release \
                 $(targets render)
+            ;;
+        bounds)
+            # The lines of src/cache the command line's bounds changed (the accuracy's bound as a
+            # constant, `Frame::run`'s thread bound and its spawning): the unit tests.
+            stage "$scope" yes -f 'src/cache/*.rs' "${d[@]}" --no-default-features --cargo-arg=--lib
+            ;;
+        render-limits)
+            # The renderer's ranges and `RenderSettings::validate`: its unit tests, then the
+            # command line's property test, which runs every option at its edges.
+            local f=(--workspace -f crates/render/src/limits.rs -f crates/render/src/settings.rs)
+            stage "$scope" yes "${f[@]}" --test-package wfic-render --cargo-arg=--lib
+            stage "$scope" no "${f[@]}" --test-package wfic-experiments $(targets command_line)
             ;;
         render-distributed)
             # The MPI exchange: its unit tests, then the suite that runs `mpirun -np 2` and 3 and
