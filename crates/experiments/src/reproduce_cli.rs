@@ -544,6 +544,11 @@ pub struct RadianceArgs {
     /// Renders of every measured setting: median time, mean error (default 3, quick 1).
     #[arg(long)]
     pub repeats: Option<u32>,
+    /// A copy of Radiance's source tree (`LBNL-ETA/Radiance`, branch `auxiliary`): the desk and
+    /// the office are then also rendered by Radiance from its own original model
+    /// (`obj/office`), as published, in rows of their own.
+    #[arg(long, value_name = "DIR")]
+    pub radiance_tree: Option<PathBuf>,
 }
 
 /// Sets `field` to `value` when given and inside `limit`.
@@ -597,6 +602,7 @@ fn radiance_config(a: &RadianceArgs) -> Result<RadianceConfig, String> {
         crate::bounds::RESOLUTION,
     )?;
     config.keep_work = a.keep_work;
+    config.radiance_tree.clone_from(&a.radiance_tree);
     set_within(&mut config.repeats, a.repeats, crate::bounds::REPEATS)?;
     Ok(config)
 }

@@ -3,11 +3,13 @@
 //! image, then the time ratio at equal error ([`compare_scene`]'s schedule; what is matched and
 //! the two errors: `docs/experiments.md#radiance-side-by-side`). Report: [`report`].
 
+pub mod export;
 pub mod report;
 pub mod rtrace;
-mod schedule;
+pub(crate) mod schedule;
 
-pub use rtrace::{shared_ambient, write_rad, RadianceBin, Rtrace, SharedAmbientRun};
+pub use export::{write_rad, Export, Source};
+pub use rtrace::{shared_ambient, RadianceBin, Rtrace, SharedAmbientRun};
 use schedule::{matched, picks, sweep, SceneReferences};
 
 use crate::harness::metrics::{image_error, masked_mean, ImageError};
@@ -52,6 +54,10 @@ pub struct RadianceConfig {
     pub keep_work: bool,
     /// Renders of every measured setting (one frame's error and time move by the goals' margins).
     pub repeats: u32,
+    /// A copy of Radiance's source tree (`LBNL-ETA/Radiance`, branch `auxiliary`): the office
+    /// and the desk are then also rendered by Radiance from its own original model
+    /// ([`Rtrace::prepare_original`]), in rows of their own.
+    pub radiance_tree: Option<std::path::PathBuf>,
 }
 impl RadianceConfig {
     /// The full comparison: 256 x 256, `rtrace -ab 1 -ad 512 -aa 0.15 -ar 128`, references at
@@ -73,6 +79,7 @@ impl RadianceConfig {
             reference_stride: 4,
             keep_work: false,
             repeats: 3,
+            radiance_tree: None,
         }
     }
 
@@ -256,6 +263,10 @@ pub struct SceneComparison {
     pub radiance_load_seconds: f64,
     /// Seconds of `oconv` (not included anywhere, like wfic's BVH build).
     pub oconv_seconds: f64,
+    /// Emitting triangles of the scene, the light sources Radiance was given for them
+    /// (spheres, polygons), and the export's emitted power over the scene's
+    /// ([`export::Export`]).
+    pub sources: (usize, usize, usize, f64),
     /// Every measured row.
     pub runs: Vec<Run>,
     /// Radiance's brute-force image against wfic's converged one (the cross-check that both
@@ -316,10 +327,21 @@ pub fn compare_scene(
     let triangles = scene.triangle_count();
     say!(&name, "exporting {triangles} triangles to Radiance");
     let rtrace = Rtrace::prepare(bin, scene, &base, config.reference_stride, &work)?;
+    let original = match (&config.radiance_tree, name.as_str()) {
+        (Some(tree), "desk" | "office") => {
+            say!(&name, "Radiance's original model from {}", tree.display());
+            let dir = work.join("original");
+            let stride = config.reference_stride;
+            Some(Rtrace::prepare_original(
+                bin, tree, scene, &base, stride, &dir,
+            )?)
+        }
+        _ => None,
+    };
     let load = rtrace.load_seconds()?;
     let mut runs = Vec::new();
-    let refs = SceneReferences::render(config, scene, &rtrace, &mut runs)?;
-    let images = matched(config, scene, &rtrace, &refs, &mut runs)?;
+    let refs = SceneReferences::render(config, scene, &rtrace, original.as_ref(), &mut runs)?;
+    let images = matched(config, scene, &rtrace, original.as_ref(), &refs, &mut runs)?;
     // Radiance's cache error at 1 and at 2 workers: each worker count gets the cheapest sweep
     // setting at or below its own (2 workers usually err less: they place more records).
     let targets = [1, 2].map(|w| {
@@ -355,6 +377,16 @@ pub fn compare_scene(
         source: scenes::info(&name).map_or("file", |i| i.source.name()),
         radiance_load_seconds: load,
         oconv_seconds: rtrace.oconv_seconds,
+        sources: {
+            let e = rtrace.export.as_ref().expect("wfic's export");
+            let power = e.export_power.element_sum() / e.scene_power.element_sum();
+            (
+                e.emitting_triangles,
+                e.spheres(),
+                e.sources.len() - e.spheres(),
+                power,
+            )
+        },
         runs,
         cross_check: image_error(&refs.radiance, &refs.converged, &refs.mask),
         mean_ratio: masked_mean(&refs.radiance, &refs.mask)
@@ -492,6 +524,7 @@ mod tests {
             source: "real",
             radiance_load_seconds: 0.0,
             oconv_seconds: 0.0,
+            sources: (2, 0, 1, 1.0),
             runs: vec![
                 run(
                     "radiance",

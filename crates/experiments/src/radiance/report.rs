@@ -142,10 +142,14 @@ fn matched_markdown(results: &[SceneComparison]) -> String {
     let picks = [None, Some(1), Some(2)]
         .into_iter()
         .flat_map(|w| [true, false].map(|reached| ("wfic", Role::pick(reached, w))));
-    let roles: Vec<_> = [("radiance", Role::Matched), ("wfic", Role::Matched)]
-        .into_iter()
-        .chain(picks)
-        .collect();
+    let roles: Vec<_> = [
+        ("radiance", Role::Matched),
+        (super::schedule::ORIGINAL, Role::Matched),
+        ("wfic", Role::Matched),
+    ]
+    .into_iter()
+    .chain(picks)
+    .collect();
     let mut rows: Vec<(Row, &Run)> = Vec::new();
     for r in results {
         for &(renderer, role) in &roles {
@@ -335,6 +339,19 @@ fn sweep_markdown(results: &[SceneComparison]) -> String {
             both(&r.cross_check)
         })
         .md("mean luminance ratio", |r| format!("{:.4}", r.mean_ratio))
+        .md("emitting triangles: Radiance's sources", |r| {
+            let (triangles, spheres, polygons, _) = r.sources;
+            let plural =
+                |n: usize, what: &str| format!("{n} {what}{}", if n == 1 { "" } else { "s" });
+            format!(
+                "{triangles}: {}, {}",
+                plural(spheres, "sphere"),
+                plural(polygons, "polygon")
+            )
+        })
+        .md("emitted power, Radiance / wfic", |r| {
+            format!("{:.4}", r.sources.3)
+        })
         .md("rtrace load + 1 ray (s)", |r| secs(r.radiance_load_seconds))
         .md("oconv (s)", |r| secs(r.oconv_seconds));
     format!(

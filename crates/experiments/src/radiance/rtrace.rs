@@ -2,10 +2,10 @@
 //! it wfic's primary rays, and timing `rtrace` runs (a brute-force reference, cached runs on
 //! one ambient file shared by `P` processes).
 
+use super::export::{write_rad, Export};
 use crate::harness::measure::time_command;
 use crate::harness::metrics::{image_error, surface_mask, ImageError};
 use glam::Vec3;
-use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use wfic_render::film::Image;
@@ -106,45 +106,6 @@ fn run_to_file(
     Ok(time_command(&mut cmd, what)?.1)
 }
 
-/// Writes the scene as a Radiance scene file: one `plastic` (no specular: Lambertian) or
-/// `light` per material, one `polygon` per triangle, corners in wfic's winding order (Radiance's
-/// front side, from which a `light` emits, is the one the right-hand rule points to, as in wfic).
-pub fn write_rad(scene: &Scene, path: &Path) -> Result<usize, String> {
-    let write = || -> std::io::Result<usize> {
-        let mut w = BufWriter::new(std::fs::File::create(path)?);
-        let (name, version) = (scene.name(), env!("CARGO_PKG_VERSION"));
-        let triangles = scene.triangle_count();
-        writeln!(
-            w,
-            "# {name} exported by wfic {version}: {triangles} triangles"
-        )?;
-        for (i, m) in scene.materials().iter().enumerate() {
-            if m.is_emissive() {
-                let e = m.emission;
-                writeln!(w, "void light m{i}\n0\n0\n3 {} {} {}\n", e.x, e.y, e.z)?;
-            } else {
-                let a = m.albedo;
-                writeln!(
-                    w,
-                    "void plastic m{i}\n0\n0\n5 {} {} {} 0 0\n",
-                    a.x, a.y, a.z
-                )?;
-            }
-        }
-        let tris = scene.triangles();
-        for (k, ([a, b, c], m)) in tris.iter().enumerate() {
-            writeln!(
-                w,
-                "m{m} polygon t{k}\n0\n0\n9 {} {} {} {} {} {} {} {} {}",
-                a.x, a.y, a.z, b.x, b.y, b.z, c.x, c.y, c.z
-            )?;
-        }
-        w.flush()?;
-        Ok(tris.len())
-    };
-    write().map_err(io_error(path))
-}
-
 /// The pixels of a `w` x `h` image's grid of one pixel in `stride` x `stride`, rows from the top.
 fn grid((w, h): (u32, u32), stride: u32) -> impl Iterator<Item = (u32, u32)> {
     let along = move |n: u32| (stride / 2..n).step_by(stride as usize);
@@ -217,7 +178,27 @@ pub struct Rtrace<'a> {
     stride: u32,
     /// Seconds of `oconv` (timed apart, like wfic's BVH build).
     pub oconv_seconds: f64,
+    /// What the scene file holds, when it is wfic's export: its light sources and their power.
+    pub export: Option<Export>,
+    /// The folder Radiance's commands run in and the `RAYPATH` they get, when the model is
+    /// Radiance's own original (its files name each other, its patterns and fonts, by name).
+    original: Option<(PathBuf, String)>,
 }
+
+/// Greg Ward's office in Radiance's distribution (`obj/office`): the scene files in the order
+/// `office.rif` lists them, and the scale wfic's conversion gives a unit (3 inches, in metres).
+pub const OFFICE_FILES: [&str; 8] = [
+    "model.b90",
+    "desk",
+    "misc",
+    "window",
+    "blinds",
+    "lights",
+    "lamp",
+    "picture",
+];
+/// One office unit in metres.
+pub const OFFICE_SCALE: f32 = 0.0762;
 
 impl<'a> Rtrace<'a> {
     /// Exports `scene` into `work` (created): the scene file, its octree, the rays of
@@ -231,7 +212,7 @@ impl<'a> Rtrace<'a> {
     ) -> Result<Self, String> {
         std::fs::create_dir_all(work).map_err(io_error(work))?;
         let (rad, oct) = (work.join("scene.rad"), work.join("scene.oct"));
-        write_rad(scene, &rad)?;
+        let export = write_rad(scene, &rad)?;
         let mut oconv = bin.command("oconv");
         oconv.arg("-f").arg(&rad);
         let oconv_seconds = run_to_file(oconv, None, &oct, "oconv")?;
@@ -247,6 +228,89 @@ impl<'a> Rtrace<'a> {
             size: (settings.width, settings.height),
             stride,
             oconv_seconds,
+            export: Some(export),
+            original: None,
+        })
+    }
+
+    /// Radiance's own model of the office, as its distribution has it (`tree` is a copy of
+    /// `LBNL-ETA/Radiance`, branch `auxiliary`): its scene files with their materials, patterns,
+    /// text and light sources as published, only scaled to metres (`xform -s`, the conversion's
+    /// scale) so that wfic's rays for `scene` (the `desk` or `office` view) and `settings` apply.
+    /// The distribution names `pine.pic`, which it holds as `pine.hdr`; a link in `work` gives it.
+    pub fn prepare_original(
+        bin: &'a RadianceBin,
+        tree: &Path,
+        scene: &Scene,
+        settings: &RenderSettings,
+        stride: u32,
+        work: &Path,
+    ) -> Result<Self, String> {
+        let work = &std::path::absolute(work).map_err(io_error(work))?;
+        let tree = &std::path::absolute(tree).map_err(io_error(tree))?;
+        std::fs::create_dir_all(work).map_err(io_error(work))?;
+        let (office, lib) = (tree.join("obj/office"), tree.join("lib"));
+        if !office.join("office.rif").is_file() || !lib.join("pine.hdr").is_file() {
+            return Err(format!(
+                "{} holds no obj/office/office.rif and lib/pine.hdr: give a copy of \
+                 LBNL-ETA/Radiance, branch auxiliary",
+                tree.display()
+            ));
+        }
+        let links = work.join("lib");
+        std::fs::create_dir_all(&links).map_err(io_error(&links))?;
+        let pic = links.join("pine.pic");
+        std::fs::remove_file(&pic).ok();
+        std::os::unix::fs::symlink(lib.join("pine.hdr"), &pic).map_err(io_error(&pic))?;
+        let raypath = format!(
+            ".:{}:{}{}",
+            links.display(),
+            lib.display(),
+            bin.raypath
+                .as_ref()
+                .map_or(String::new(), |p| format!(":{p}"))
+        );
+        let rad = work.join("original.rad");
+        let text = format!(
+            "# Greg Ward's office (Radiance's obj/office), its scene files in office.rif's \
+             order, in metres\n!xform -s {OFFICE_SCALE} {}\n",
+            OFFICE_FILES.join(" ")
+        );
+        std::fs::write(&rad, text).map_err(io_error(&rad))?;
+        let oct = work.join("original.oct");
+        // `!xform` lines run through the shell, which must find Radiance's own `xform`.
+        let path = std::env::join_paths(
+            std::iter::once(bin.dir.clone()).chain(
+                std::env::var_os("PATH")
+                    .iter()
+                    .flat_map(std::env::split_paths),
+            ),
+        )
+        .map_err(|e| e.to_string())?;
+        let mut oconv = bin.command("oconv");
+        oconv.env("RAYPATH", &raypath).env("PATH", path);
+        oconv.current_dir(&office);
+        oconv.arg("-f").arg(&rad);
+        oconv.stdout(std::fs::File::create(&oct).map_err(io_error(&oct))?);
+        let (out, oconv_seconds) = time_command(&mut oconv, "oconv (original)")?;
+        let warnings = String::from_utf8_lossy(&out.stderr);
+        if warnings.contains("bad status") || warnings.contains("empty file") {
+            return Err(format!("oconv (original): {}", warnings.trim()));
+        }
+        let (rays, grid_rays) = (work.join("rays.f32"), work.join("grid-rays.f32"));
+        write_rays(scene, settings, 1, &rays)?;
+        write_rays(scene, settings, stride, &grid_rays)?;
+        Ok(Self {
+            bin,
+            work: work.to_owned(),
+            oct,
+            rays,
+            grid_rays,
+            size: (settings.width, settings.height),
+            stride,
+            oconv_seconds,
+            export: None,
+            original: Some((office, raypath)),
         })
     }
 
@@ -255,6 +319,9 @@ impl<'a> Rtrace<'a> {
     /// ambient file `amb` when given; `args` (space-separated) add the cache's settings.
     fn rtrace(&self, args: &str, workers: usize, amb: Option<&Path>) -> Command {
         let mut c = self.bin.command("rtrace");
+        if let Some((dir, raypath)) = &self.original {
+            c.env("RAYPATH", raypath).current_dir(dir);
+        }
         c.args(["-h-", "-fff", "-ab", "1", "-av", "0", "0", "0", "-aw", "0"]);
         c.args(["-dj", "0", "-lw", "1e-7"]).args(args.split(' '));
         c.args(["-n", &workers.to_string()]);

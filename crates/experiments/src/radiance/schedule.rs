@@ -9,6 +9,9 @@ use wfic::cache::Scheme;
 use wfic_render::film::Image;
 use wfic_render::{render_reference_grid, render_with_scheme, RenderSettings, Scene};
 
+/// The renderer's name in the rows Radiance renders from its own original model.
+pub(super) const ORIGINAL: &str = "radiance (original model)";
+
 /// The seed of wfic's repeat `i`: the matched seed first.
 fn seed_of(i: u32) -> u64 {
     0x5eed + 0x1_0000 * u64::from(i)
@@ -20,6 +23,8 @@ fn seed_of(i: u32) -> u64 {
 pub(super) struct SceneReferences {
     pub(super) mask: Vec<bool>,
     pub(super) radiance: Image,
+    /// Radiance's brute-force image of its own original model, when it runs.
+    pub(super) original: Option<Image>,
     pub(super) wfic_own: Vec<Image>,
     pub(super) converged: Image,
 }
@@ -31,6 +36,7 @@ impl SceneReferences {
         config: &RadianceConfig,
         scene: &Scene,
         rtrace: &Rtrace,
+        original: Option<&Rtrace>,
         runs: &mut Vec<Run>,
     ) -> Result<Self, String> {
         let (name, n4, k) = (scene.name(), 4 * config.rays, config.reference_stride);
@@ -40,6 +46,13 @@ impl SceneReferences {
             k * k
         );
         let (radiance, radiance_seconds) = rtrace.reference(n4)?;
+        let original = match original {
+            Some(o) => {
+                say!(name, "radiance reference of the original model");
+                Some(o.reference(n4)?)
+            }
+            None => None,
+        };
         // wfic's references on the same grid: brute force with the matched light samples (cache
         // error), and the converged one (image error) with more light samples and another seed.
         let repeats = config.repeats.max(1);
@@ -64,6 +77,7 @@ impl SceneReferences {
             converged: render_reference_grid(scene, &camera, &converged_settings, rc, 2, k).0,
             mask: surface_mask(scene, &s, k),
             radiance,
+            original: original.as_ref().map(|(img, _)| img.clone()),
             wfic_own: own.into_iter().map(|(img, _)| img).collect(),
         };
         let radiance = Run::new("radiance", Role::Reference, 2, (0.0, n4), None);
@@ -72,14 +86,19 @@ impl SceneReferences {
             refs.measured(radiance, &refs.radiance, 0, radiance_seconds),
             refs.measured(wfic, &refs.wfic_own[0], 0, wfic_seconds),
         ]);
+        if let (Some(img), Some((_, seconds))) = (&refs.original, &original) {
+            let row = Run::new(ORIGINAL, Role::Reference, 2, (0.0, n4), None);
+            runs.push(refs.measured(row, img, 0, *seconds));
+        }
         Ok(refs)
     }
 
     /// `run` rendered as `img` in `seconds`: `img` against its renderer's own reference of
     /// `repeat` and the converged one.
     fn measured(&self, run: Run, img: &Image, repeat: usize, seconds: f64) -> Run {
-        let own = match run.renderer {
-            "radiance" => &self.radiance,
+        let own = match (run.renderer, &self.original) {
+            ("radiance", _) => &self.radiance,
+            (ORIGINAL, Some(original)) => original,
             _ => &self.wfic_own[repeat],
         };
         let cache_error = image_error(img, own, &self.mask);
@@ -144,6 +163,7 @@ pub(super) fn matched(
     config: &RadianceConfig,
     scene: &Scene,
     rtrace: &Rtrace,
+    original: Option<&Rtrace>,
     refs: &SceneReferences,
     runs: &mut Vec<Run>,
 ) -> Result<Vec<Image>, String> {
@@ -156,23 +176,28 @@ pub(super) fn matched(
     let repeats = config.repeats.max(1);
     let mut images = Vec::new();
     let mut keep = |(run, img): (Run, Image)| {
-        if run.workers == 1 {
+        if run.workers == 1 && run.renderer != ORIGINAL {
             images.push(img);
         }
         runs.push(run);
     };
-    for workers in [1, 2] {
-        let row = Run::new("radiance", Role::Matched, workers, (a, n), None);
-        keep(refs.frames(&row, repeats as usize, |i| {
-            say!(
-                name,
-                "radiance: -aa {a} -ad {n} -ar {ar}, {workers} process(es), run {} of {repeats}",
-                i + 1
-            );
-            let amb = format!("amb-{workers}-{i}");
-            let (img, seconds, records, _) = rtrace.cached((a, n, ar), workers, &amb)?;
-            Ok((img, seconds, records))
-        })?);
+    let models = std::iter::once(("radiance", rtrace)).chain(original.map(|o| (ORIGINAL, o)));
+    for (renderer, model) in models {
+        for workers in [1, 2] {
+            let row = Run::new(renderer, Role::Matched, workers, (a, n), None);
+            let frames = refs.frames(&row, repeats as usize, |i| {
+                say!(
+                    name,
+                    "{renderer}: -aa {a} -ad {n} -ar {ar}, {workers} process(es), run {} of \
+                     {repeats}",
+                    i + 1
+                );
+                let amb = format!("amb-{workers}-{i}");
+                let (img, seconds, records, _) = model.cached((a, n, ar), workers, &amb)?;
+                Ok((img, seconds, records))
+            })?;
+            keep(frames);
+        }
     }
     let base = config.settings(a, n, config.light_samples, 0x5eed);
     for workers in [1, 2] {
