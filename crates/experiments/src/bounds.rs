@@ -258,18 +258,28 @@ pub fn check_resources(threads: usize, size: Option<(u32, u32)>) -> Result<(), S
             "--threads {threads}: the system started only {i} threads ({e}); give fewer threads"
         )
     })?;
-    if let (Some((w, h)), Some(free)) = (size, available_memory()) {
-        let need = limits::frame_bytes(w, h);
-        if need > free {
-            return Err(format!(
-                "--width {w} --height {h}: the frame needs about {:.1} GiB, and the system has \
-                 {:.1} GiB free; give a smaller image",
-                need as f64 / GIB,
-                free as f64 / GIB
-            ));
-        }
+    match size {
+        Some(size) => check_memory(size, available_memory()),
+        None => Ok(()),
     }
-    Ok(())
+}
+
+/// Refuses a `width x height` frame larger than `free` bytes ([`limits::frame_bytes`]); `None`:
+/// the system reports no free memory, and nothing is refused.
+///
+/// # Errors
+/// A message naming the size, what it needs and what is free.
+pub fn check_memory((w, h): (u32, u32), free: Option<u64>) -> Result<(), String> {
+    let need = limits::frame_bytes(w, h);
+    match free {
+        Some(free) if need > free => Err(format!(
+            "--width {w} --height {h}: the frame needs about {:.1} GiB, and the system has \
+             {:.1} GiB free; give a smaller image",
+            need as f64 / GIB,
+            free as f64 / GIB
+        )),
+        _ => Ok(()),
+    }
 }
 
 const GIB: f64 = (1u64 << 30) as f64;
@@ -307,4 +317,26 @@ fn available_memory() -> Option<u64> {
     let line = info.lines().find(|l| l.starts_with("MemAvailable:"))?;
     let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
     Some(kib * 1024)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_frame_larger_than_the_free_memory_is_refused_by_its_size() {
+        let gib = 1u64 << 30;
+        let e = check_memory((8192, 8192), Some(gib)).unwrap_err();
+        assert!(
+            e.contains("--width 8192 --height 8192") && e.contains("3.0 GiB"),
+            "{e}"
+        );
+        assert_eq!(check_memory((4096, 4096), Some(gib)), Ok(()));
+        assert_eq!(check_memory((8192, 8192), None), Ok(()));
+    }
+
+    #[test]
+    fn a_few_threads_start() {
+        assert_eq!(check_resources(8, None), Ok(()));
+    }
 }

@@ -9,6 +9,7 @@ pub mod animation;
 pub mod bounds;
 pub mod cli;
 pub mod deterministic;
+pub mod direct;
 pub mod distributed;
 pub mod dynamic;
 pub mod harness;

@@ -11,6 +11,7 @@ use std::path::{Path, PathBuf};
 use wfic::cache::Scheme;
 use wfic_render::film::worker_colour;
 use wfic_render::limits;
+use wfic_render::settings::DirectSampling;
 use wfic_render::{obj, render_with_scheme, scenes, Camera, Pool, RenderSettings, Scene};
 
 /// `--scheme` parses from the cache layer's list: names, and descriptions for `--help`.
@@ -39,6 +40,14 @@ pub fn pool_parser() -> impl TypedValueParser<Value = Pool> {
 }
 
 /// A point `x,y,z`, each coordinate within [`limits::COORDINATE`].
+/// `--direct` parses from the renderer's estimators.
+pub fn direct_parser() -> impl TypedValueParser<Value = DirectSampling> {
+    PossibleValuesParser::new(["bounds", "power-over-distance"]).map(|name| match name.as_str() {
+        "bounds" => DirectSampling::Bounds,
+        _ => DirectSampling::PowerOverDistance,
+    })
+}
+
 fn parse_vec3(s: &str) -> Result<Vec3, String> {
     crate::bounds::parse_point(s, limits::COORDINATE)
 }
@@ -84,6 +93,11 @@ pub struct RenderArgs {
     /// Primary rays per pixel (stratified jitter; each hit makes its own cache lookup).
     #[arg(long, default_value_t = 1)]
     pub spp: u32,
+    /// How direct light is sampled: `bounds` (every emitter that can reach a point sampled on
+    /// its own when the light samples allow, chosen by an importance with both cosines, bulbs
+    /// by cone) or `power-over-distance` (the earlier estimator, kept as the baseline).
+    #[arg(long, value_parser = direct_parser(), default_value = "bounds")]
+    pub direct: DirectSampling,
     /// Seed of the per-pixel random streams.
     #[arg(long, default_value_t = 0x5eed)]
     pub seed: u64,
@@ -256,6 +270,7 @@ pub fn settings_from(args: &RenderArgs) -> Result<RenderSettings, RenderError> {
         .quiet(args.quiet)
         .pool(args.pool);
     settings.deterministic = args.deterministic;
+    settings.direct = args.direct;
     settings.validate().map_err(out_of_range)?;
     Ok(settings)
 }

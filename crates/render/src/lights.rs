@@ -1,20 +1,23 @@
 //! The scene's area lights and how a shading point chooses among them.
 //!
 //! Every emissive triangle is a light. Triangles that touch (share a corner) and emit the same
-//! radiance form one **emitter**: a panel, a troffer, a tessellated bulb. A light sample at a
-//! point `x` with facing normal `n` first chooses an emitter with probability proportional to its
-//! power over its squared distance, `Phi / max(d^2, r^2)` (`r` the emitter's bounding radius), and
-//! zero for an emitter that cannot reach `x` (behind `x`'s tangent plane, or `x` behind a flat
-//! emitter); then one of the emitter's triangles by power; then a point uniform in that
-//! triangle's area.
+//! radiance form one **emitter**: a panel, a troffer, a tessellated bulb. At a point `x` with
+//! facing normal `n`, each emitter gets a weight, zero only where it cannot reach `x`:
 //!
-//! Choosing by power alone would give each emitter the same share at every point. A small,
-//! bright emitter (the office's 60 W bulb: 3% of the power, 528 triangles) would then rarely be
-//! chosen where it dominates, and its rare samples weighted by the inverse of that 3%: fireflies.
-//! Weighing by distance chooses the bulb near the bulb and the troffers near the troffers. A weight is zero only
-//! where no point of the emitter can light `x`, so the estimate stays unbiased
-//! (`direct_irradiance_matches_the_form_factor_of_a_square` and
-//! `choice_by_distance_is_unbiased_between_two_emitters` in the integrator's tests).
+//! - [`DirectSampling::Bounds`] (the default): the light-bounds importance (Conty Estevez and
+//!   Kulla 2018; pbrt-v4's `LightBounds::Importance`): power over squared distance times bounds
+//!   on the emitter's and the receiver's cosines, each widened by the angle the emitter's
+//!   bounding sphere subtends (`importance`). A tessellated sphere ([`sphere_like`]) seen from
+//!   outside its bounding sphere is sampled by a direction uniform in that sphere's cone
+//!   ([`Sampled::Cone`]), whose shadow ray must meet the emitter first.
+//! - [`DirectSampling::PowerOverDistance`] (the earlier estimator, kept as the baseline): power
+//!   over squared distance, `Phi / max(d^2, r^2)` (`r` the emitter's bounding radius), zero for
+//!   an emitter behind `x`'s tangent plane or with `x` behind it.
+//!
+//! Within an emitter: a triangle by power, then a point uniform in its area, unless the emitter
+//! is coned or sampled by solid angle (below). The integrator either chooses an emitter per
+//! sample by the weights ([`Lights::sample`]) or samples every emitter that can reach `x` on its
+//! own ([`Lights::sample_emitter`]; `integrator::direct_irradiance`).
 //!
 //! Above [`MAX_WEIGHED`] emitters the per-point weights would cost more than they save, and the
 //! choice falls back to power alone.
@@ -71,8 +74,94 @@ struct Emitter {
     normal: Option<Vec3>,
     /// Every corner lies in the plane through `center` normal to `normal`.
     flat: bool,
+    /// The cone that bounds the triangles' normals: its axis and the cosine of its half-angle
+    /// (-1: every direction).
+    axis: Vec3,
+    cos_o: f32,
+    /// A tessellated sphere ([`sphere_like`]): its centre and the radius bounding its corners.
+    sphere: Option<(Vec3, f32)>,
     first: usize,
     count: usize,
+}
+
+/// How the direct light is sampled ([`crate::RenderSettings::direct`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum DirectSampling {
+    /// Emitters weighed by an importance with both cosines (pbrt-v4's light-bounds importance);
+    /// where the samples are at least the emitters that can reach the point, every one of them
+    /// gets its share, at least one; a tessellated sphere is sampled by directions in its cone.
+    #[default]
+    Bounds,
+    /// The earlier estimator, kept as the baseline the measurements compare with: one choice
+    /// of emitter per sample, by power over squared distance; spheres sampled by area.
+    PowerOverDistance,
+}
+
+impl DirectSampling {
+    /// The name, as the experiments print it.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Bounds => "bounds",
+            Self::PowerOverDistance => "power/d2",
+        }
+    }
+}
+
+/// A closed mesh of triangles around one centre: every corner within 2% of one distance from
+/// it and every triangle facing away from it (a tessellated bulb).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SphereLike {
+    /// The centre (the mean of the distinct corners).
+    pub center: Vec3,
+    /// The largest distance of a corner from the centre: the sphere holds every triangle.
+    pub bound: f32,
+    /// The radius of the sphere whose area the triangles have.
+    pub area_radius: f32,
+}
+
+/// Whether `triangles` (corners in winding order) tessellate a sphere: at least 8 of them, every
+/// edge shared by exactly two, every corner within 2% of the mean distance from the corners'
+/// centre, every triangle's wound normal pointing away from it.
+pub fn sphere_like(triangles: &[[Vec3; 3]]) -> Option<SphereLike> {
+    use glam::DVec3;
+    if triangles.len() < 8 {
+        return None;
+    }
+    let key = |v: Vec3| v.to_array().map(f32::to_bits);
+    let mut edges: HashMap<([u32; 3], [u32; 3]), u32> = HashMap::new();
+    let mut corners: HashMap<[u32; 3], DVec3> = HashMap::new();
+    for t in triangles {
+        for e in 0..3 {
+            let (a, b) = (key(t[e]), key(t[(e + 1) % 3]));
+            *edges
+                .entry(if a < b { (a, b) } else { (b, a) })
+                .or_default() += 1;
+            corners.insert(a, t[e].as_dvec3());
+        }
+    }
+    if edges.values().any(|&n| n != 2) {
+        return None;
+    }
+    let center = corners.values().sum::<DVec3>() / corners.len() as f64;
+    let dist: Vec<f64> = corners.values().map(|v| v.distance(center)).collect();
+    let mean = dist.iter().sum::<f64>() / dist.len() as f64;
+    if dist.iter().any(|d| (d - mean).abs() > 0.02 * mean) {
+        return None;
+    }
+    let mut area = 0.0;
+    for t in triangles {
+        let [a, b, c] = t.map(Vec3::as_dvec3);
+        let n = (b - a).cross(c - a);
+        if n.dot((a + b + c) / 3.0 - center) <= 0.0 {
+            return None;
+        }
+        area += 0.5 * n.length();
+    }
+    Some(SphereLike {
+        center: center.as_vec3(),
+        bound: dist.iter().copied().fold(0.0, f64::max) as f32,
+        area_radius: (area / (4.0 * std::f64::consts::PI)).sqrt() as f32,
+    })
 }
 
 /// A sampled point on a light.
@@ -88,6 +177,29 @@ pub struct LightSample {
     pub pdf_area: f32,
 }
 
+/// A light sample: a point on an emitter, or a direction in a sphere's cone whose shadow ray
+/// finds the point (and whether the emitter is what it meets first).
+#[derive(Clone, Copy, Debug)]
+pub enum Sampled {
+    /// A point, with its density per unit area.
+    Point(LightSample),
+    /// A direction uniform in the cone that bounds emitter `emitter` (a tessellated sphere) seen
+    /// from the shading point, with its density per unit solid angle: the light arrives along it
+    /// when the first thing the ray meets is a front face of that emitter.
+    Cone {
+        /// Unit direction from the shading point.
+        dir: Vec3,
+        /// The emitter's radiance.
+        emission: Vec3,
+        /// Density per unit solid angle (emitter choice included).
+        pdf_dir: f32,
+        /// The emitter the ray must meet.
+        emitter: u32,
+        /// How far the ray can meet it: to the far side of its bounding sphere.
+        t_max: f32,
+    },
+}
+
 /// The lights of a scene, grouped into emitters.
 #[derive(Clone, Debug)]
 pub struct Lights {
@@ -98,6 +210,8 @@ pub struct Lights {
     emitters: Vec<Emitter>,
     /// Cumulative share of the total power per emitter (the fallback choice).
     by_power: Vec<f32>,
+    /// The emitter of each light as [`Lights::new`] was given them.
+    emitter_of: Vec<u32>,
 }
 
 /// The emitter probabilities at one shading point.
@@ -114,6 +228,8 @@ pub struct LightChoice {
     by_solid_angle: u64,
     /// The shading point.
     x: Vec3,
+    /// How the point's light is sampled.
+    sampling: DirectSampling,
 }
 
 /// An emitter is near a point when its farthest point may be more than this many times as far as
@@ -132,7 +248,32 @@ impl LightChoice {
             near: false,
             by_solid_angle: 0,
             x: Vec3::ZERO,
+            sampling: DirectSampling::Bounds,
         }
+    }
+
+    /// The emitters that can reach the point with their probabilities (none under the
+    /// fallback choice by power, which weighs every emitter everywhere).
+    pub fn reachable(&self) -> impl Iterator<Item = (usize, f32)> + '_ {
+        let cdf = if self.by_power {
+            &[][..]
+        } else {
+            &self.cdf[..self.len]
+        };
+        cdf.iter().enumerate().filter_map(|(k, &c)| {
+            let p = c - if k == 0 { 0.0 } else { cdf[k - 1] };
+            (p > 0.0).then_some((k, p))
+        })
+    }
+
+    /// How many emitters can reach the point (0 under the fallback choice by power).
+    pub fn reachable_count(&self) -> usize {
+        self.reachable().count()
+    }
+
+    /// How the point's light is sampled.
+    pub fn sampling(&self) -> DirectSampling {
+        self.sampling
     }
 
     /// True when an emitter that can light the point is near it ([`NEAR`]) and too large to be
@@ -288,6 +429,95 @@ macro_rules! solid_angle_sampler {
 /// A solid-angle sample that wants a wider float than the one tried.
 struct TooNarrow;
 
+/// The earlier weight: power over squared distance, zero where no point of the emitter lies
+/// above `x`'s tangent plane or `x` lies behind every point of a flat emitter (`d` from `x` to
+/// the emitter's centre).
+fn power_over_distance(e: &Emitter, d: Vec3, n: Vec3) -> f32 {
+    let behind_x = n.dot(d) <= -e.radius;
+    let behind_light = match (e.flat, e.normal) {
+        (true, Some(nl)) => nl.dot(-d) <= 0.0,
+        (false, Some(nl)) => nl.dot(-d) <= -e.radius,
+        _ => false,
+    };
+    if behind_x || behind_light {
+        return 0.0;
+    }
+    e.power / d.length_squared().max(e.radius * e.radius).max(1e-12)
+}
+
+/// `cos(max(0, theta_a - theta_b))` from the cosines and sines of both angles (in `[0, pi]`):
+/// the cosine of how far angle `a` exceeds `b`, 1 when it does not.
+#[inline]
+fn cos_beyond(cos_a: f32, sin_a: f32, cos_b: f32, sin_b: f32) -> (f32, f32) {
+    if cos_a >= cos_b {
+        return (1.0, 0.0);
+    }
+    (
+        cos_a * cos_b + sin_a * sin_b,
+        (sin_a * cos_b - cos_a * sin_b).max(0.0),
+    )
+}
+
+/// The light-bounds importance of emitter `e` at `x` with facing normal `n` (Conty Estevez and
+/// Kulla 2018, as pbrt-v4's `LightBounds::Importance` states it): power over squared distance,
+/// times a bound on the emitter's cosine (the angle from its normals' cone to `x`, less the
+/// angle the emitter's bounding sphere subtends) and a bound on the receiver's (the angle from
+/// `n` to the emitter, less the same). Zero only where no point of the emitter can send light to
+/// `x`'s hemisphere; the emitters here emit from their front, into a half-angle of 90 degrees.
+fn importance(e: &Emitter, x: Vec3, n: Vec3) -> f32 {
+    let d = x - e.center;
+    let d2 = d.length_squared();
+    let dist = d2.sqrt();
+    if dist <= e.radius {
+        // Inside the bounding sphere: every direction may carry light.
+        return e.power / (e.radius * e.radius).max(1e-12);
+    }
+    let wi = d / dist;
+    let sin_b = e.radius / dist;
+    let cos_b = (1.0 - sin_b * sin_b).max(0.0).sqrt();
+    // The emitter's side: the angle from the normals' cone's axis to x, beyond the cone and the
+    // bounding angle.
+    let cos_w = e.axis.dot(wi);
+    let cos_e = if e.cos_o <= -1.0 {
+        1.0
+    } else {
+        let sin_w = (1.0 - cos_w * cos_w).max(0.0).sqrt();
+        let sin_o = (1.0 - e.cos_o * e.cos_o).max(0.0).sqrt();
+        let (c, s) = cos_beyond(cos_w, sin_w, e.cos_o, sin_o);
+        cos_beyond(c, s, cos_b, sin_b).0
+    };
+    if cos_e <= 0.0 {
+        return 0.0;
+    }
+    // The receiver's side: the angle from n to the emitter, beyond the bounding angle.
+    let cos_i = -n.dot(wi);
+    let sin_i = (1.0 - cos_i * cos_i).max(0.0).sqrt();
+    let cos_r = cos_beyond(cos_i, sin_i, cos_b, sin_b).0;
+    if cos_r <= 0.0 {
+        return 0.0;
+    }
+    e.power * cos_e * cos_r / d2
+}
+
+/// For a tessellated sphere seen from outside its bounding sphere: the unit direction from `x` to
+/// its centre, `1 - cos` of the half-angle the bounding sphere subtends, and the distance to the
+/// sphere's far side (no ray in the cone meets the emitter beyond it).
+#[inline]
+fn cone_of(e: &Emitter, x: Vec3) -> Option<(Vec3, f32, f32)> {
+    let (c, r) = e.sphere?;
+    let d = c - x;
+    let d2 = d.length_squared();
+    let sin2 = r * r / d2;
+    // Inside (or nearly on) the bounding sphere, or a NaN: no cone.
+    if sin2.is_nan() || sin2 >= 0.999 {
+        return None;
+    }
+    // 1 - cos = sin^2 / (1 + cos), without the cancellation of 1 - cos for small cones.
+    let one_minus_cos = sin2 / (1.0 + (1.0 - sin2).sqrt());
+    let dist = d2.sqrt();
+    Some((d / dist, one_minus_cos, (dist + r) * (1.0 + 1e-4)))
+}
+
 /// Smallest solid angle (sr) an emitter and the triangle chosen in it subtend for the sampler to
 /// work in `f32`; below, `f64`. At `1e-2` sr the triangle spans about a tenth of a radian, where
 /// `f32`'s rounding (`6e-8`) moves a sampled direction by about `1e-6` of that span.
@@ -363,12 +593,30 @@ impl Lights {
                     .flat_map(|l| l.corners)
                     .all(|p| nl.dot(p - center).abs() <= 1e-5 * radius.max(1e-12))
             });
+            // The normals' cone: around their area-weighted mean, as wide as the farthest one
+            // (every direction when they cancel, as a sphere's do).
+            let sum: Vec3 = group.iter().map(|l| l.normal * l.area).sum();
+            let axis = sum.normalize_or_zero();
+            let cos_o = if axis == Vec3::ZERO {
+                -1.0
+            } else {
+                group
+                    .iter()
+                    .map(|l| l.normal.dot(axis))
+                    .fold(1.0f32, f32::min)
+                    .max(-1.0)
+            };
+            let corners: Vec<[Vec3; 3]> = group.iter().map(|l| l.corners).collect();
+            let sphere = sphere_like(&corners).map(|s| (s.center, s.bound));
             emitters.push(Emitter {
                 center,
                 radius,
                 power: power as f32,
                 normal,
                 flat,
+                axis,
+                cos_o,
+                sphere,
                 first: start,
                 count: end - start,
             });
@@ -386,12 +634,24 @@ impl Lights {
         if let Some(last) = by_power.last_mut() {
             *last = 1.0;
         }
+        let mut emitter_of = vec![0u32; lights.len()];
+        for (k, e) in emitters.iter().enumerate() {
+            for &i in &order[e.first..e.first + e.count] {
+                emitter_of[i] = k as u32;
+            }
+        }
         Self {
             lights,
             within,
             emitters,
             by_power,
+            emitter_of,
         }
+    }
+
+    /// The emitter of light `i`, numbered as [`Lights::new`] was given them.
+    pub fn emitter_of(&self, i: usize) -> u32 {
+        self.emitter_of[i]
     }
 
     /// The emissive triangles, emitter by emitter.
@@ -409,46 +669,49 @@ impl Lights {
         self.lights.is_empty()
     }
 
-    /// The emitter probabilities at `x` with unit facing normal `n`.
-    pub fn choice(&self, x: Vec3, n: Vec3) -> LightChoice {
+    /// The emitter probabilities at `x` with unit facing normal `n`, sampled as `sampling` says.
+    pub fn choice(&self, x: Vec3, n: Vec3, sampling: DirectSampling) -> LightChoice {
         let mut choice = LightChoice::empty();
-        self.choice_into(x, n, &mut choice);
+        self.choice_into(x, n, sampling, &mut choice);
         choice
     }
 
     /// [`Lights::choice`] written into `choice`, whose earlier contents are overwritten: a caller
     /// that chooses at many points (one per hemisphere hit) keeps one and neither clears nor
     /// copies its 64-entry table each time.
-    pub fn choice_into(&self, x: Vec3, n: Vec3, choice: &mut LightChoice) {
+    pub fn choice_into(
+        &self,
+        x: Vec3,
+        n: Vec3,
+        sampling: DirectSampling,
+        choice: &mut LightChoice,
+    ) {
         choice.len = 0;
         choice.by_power = self.emitters.len() > MAX_WEIGHED;
         choice.near = false;
         choice.by_solid_angle = 0;
         choice.x = x;
+        choice.sampling = sampling;
         if choice.by_power {
             return;
         }
         let mut total = 0.0f32;
         for (k, e) in self.emitters.iter().enumerate() {
             let d = e.center - x;
-            // No point of the emitter lies above x's tangent plane, or (flat emitters) x lies
-            // behind every point of it: it cannot light x.
-            let behind_x = n.dot(d) <= -e.radius;
-            let behind_light = match (e.flat, e.normal) {
-                (true, Some(nl)) => nl.dot(-d) <= 0.0,
-                (false, Some(nl)) => nl.dot(-d) <= -e.radius,
-                _ => false,
+            let weight = match sampling {
+                DirectSampling::Bounds => importance(e, x, n),
+                DirectSampling::PowerOverDistance => power_over_distance(e, d, n),
             };
-            if !(behind_x || behind_light) {
-                let d2 = d.length_squared();
-                total += e.power / d2.max(e.radius * e.radius).max(1e-12);
-                let dist = d2.sqrt();
+            if weight > 0.0 {
+                total += weight;
+                let dist = d.length();
                 let plane = match (e.flat, e.normal) {
                     (true, Some(nl)) => nl.dot(-d).abs(),
                     _ => 0.0,
                 };
                 let nearest = (dist - e.radius).max(plane);
-                if dist + e.radius > NEAR * nearest {
+                let coned = sampling == DirectSampling::Bounds && cone_of(e, x).is_some();
+                if dist + e.radius > NEAR * nearest && !coned {
                     // MAX_WEIGHED <= 64: k fits the bit set.
                     if e.count <= SOLID_ANGLE_MAX {
                         choice.by_solid_angle |= 1 << k;
@@ -469,10 +732,11 @@ impl Lights {
     }
 
     /// The light point for the uniform numbers `u` in `[0, 1)^3` under `choice`: `u[0]` chooses
-    /// the emitter and then its triangle, `u[1]` and `u[2]` the point in the triangle, so
-    /// stratifying `u` stratifies the samples. `None` when no emitter can light the point.
+    /// the emitter and then its triangle, `u[1]` and `u[2]` the point in the triangle (or the
+    /// direction in a sphere's cone), so stratifying `u` stratifies the samples. `None` when no
+    /// emitter can light the point.
     #[inline]
-    pub fn sample(&self, choice: &LightChoice, u: [f32; 3]) -> Option<LightSample> {
+    pub fn sample(&self, choice: &LightChoice, u: [f32; 3]) -> Option<Sampled> {
         let cdf: &[f32] = if choice.by_power {
             &self.by_power
         } else {
@@ -486,26 +750,60 @@ impl Lights {
         if p_emitter <= 0.0 {
             return None;
         }
-        let e = &self.emitters[k];
         // Reuse u[0] inside the emitter's interval for the triangle.
         let v = ((u[0] - lo) / p_emitter).clamp(0.0, 1.0 - f32::EPSILON);
+        self.sample_emitter(choice, k, p_emitter, [v, u[1], u[2]])
+    }
+
+    /// A sample of emitter `k` alone for the uniform numbers `u`, its density multiplied by
+    /// `p_emitter` (1: the emitter is sampled for itself, not chosen): a direction in its cone
+    /// when it is a tessellated sphere seen from outside its bounding sphere (under
+    /// [`DirectSampling::Bounds`]), else by solid angle where it is near and small enough, else a
+    /// triangle by power and a point uniform in its area.
+    #[inline]
+    pub fn sample_emitter(
+        &self,
+        choice: &LightChoice,
+        k: usize,
+        p_emitter: f32,
+        u: [f32; 3],
+    ) -> Option<Sampled> {
+        let e = &self.emitters[k];
+        if choice.sampling == DirectSampling::Bounds {
+            if let Some((axis, one_minus_cos, t_max)) = cone_of(e, choice.x) {
+                // Uniform in the cone: 1 - cos(theta) uniform in [0, 1 - cos(theta_max)].
+                let t = u[1] * one_minus_cos;
+                let cos = 1.0 - t;
+                let sin = (t * (2.0 - t)).max(0.0).sqrt();
+                let (sp, cp) = (std::f32::consts::TAU * u[2]).sin_cos();
+                let (a, b) = axis.any_orthonormal_pair();
+                let dir = (a * (cp * sin) + b * (sp * sin) + axis * cos).normalize();
+                return Some(Sampled::Cone {
+                    dir,
+                    emission: self.lights[e.first].emission,
+                    pdf_dir: p_emitter / (std::f32::consts::TAU * one_minus_cos),
+                    emitter: k as u32,
+                    t_max,
+                });
+            }
+        }
         if choice.by_solid_angle >> k & 1 == 1 {
-            if let Some(s) = self.sample_solid_angle(e, choice.x, p_emitter, [v, u[1], u[2]]) {
-                return s;
+            if let Some(s) = self.sample_solid_angle(e, choice.x, p_emitter, u) {
+                return s.map(Sampled::Point);
             }
         }
         let within = &self.within[e.first..e.first + e.count];
-        let t = within.partition_point(|&c| c <= v).min(e.count - 1);
+        let t = within.partition_point(|&c| c <= u[0]).min(e.count - 1);
         let p_tri = within[t] - if t == 0 { 0.0 } else { within[t - 1] };
         let l = &self.lights[e.first + t];
         let (s, w) = (u[1].sqrt(), u[2]);
         let [a, b, c] = l.corners;
-        Some(LightSample {
+        Some(Sampled::Point(LightSample {
             point: a * (1.0 - s) + b * (s * (1.0 - w)) + c * (s * w),
             normal: l.normal,
             emission: l.emission,
             pdf_area: p_emitter * p_tri / l.area,
-        })
+        }))
     }
 
     /// A point of emitter `e` (chosen with probability `p_emitter`) sampled by solid angle from
@@ -548,6 +846,14 @@ impl Lights {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The point of a sample that is one (these tests sample no sphere by cone).
+    fn point(s: Sampled) -> LightSample {
+        match s {
+            Sampled::Point(p) => p,
+            Sampled::Cone { .. } => panic!("a cone sample"),
+        }
+    }
 
     fn tri(a: Vec3, b: Vec3, c: Vec3, e: f32) -> Light {
         let cross = (b - a).cross(c - a);
@@ -597,18 +903,30 @@ mod tests {
     fn the_near_emitter_is_chosen_and_an_unreachable_one_never() {
         let lights = three();
         // Under the first square: the far one (x = 10) gets about 1/100 of its share.
-        let c = lights.choice(Vec3::new(0.5, 0.0, 0.5), Vec3::Y);
+        let c = lights.choice(
+            Vec3::new(0.5, 0.0, 0.5),
+            Vec3::Y,
+            DirectSampling::PowerOverDistance,
+        );
         let p = |k: usize| c.cdf[k] - if k == 0 { 0.0 } else { c.cdf[k - 1] };
         let (first, far, bright) = (p(0), p(1), p(2));
         let total = first + far + bright;
         assert!((total - 1.0).abs() < 1e-5);
         assert!(first > 0.4 && far < 0.02, "{first} {far} {bright}");
         // Facing down, below every light: nothing can light the point.
-        let none = lights.choice(Vec3::new(0.5, 0.0, 0.5), -Vec3::Y);
-        assert!(lights.sample(&none, [0.3, 0.5, 0.5]).is_none());
+        let none = lights.choice(
+            Vec3::new(0.5, 0.0, 0.5),
+            -Vec3::Y,
+            DirectSampling::PowerOverDistance,
+        );
+        assert!(lights.sample(&none, [0.3, 0.5, 0.5]).map(point).is_none());
         // Above the lights (behind them): nothing either.
-        let above = lights.choice(Vec3::new(0.5, 2.0, 0.5), -Vec3::Y);
-        assert!(lights.sample(&above, [0.3, 0.5, 0.5]).is_none());
+        let above = lights.choice(
+            Vec3::new(0.5, 2.0, 0.5),
+            -Vec3::Y,
+            DirectSampling::PowerOverDistance,
+        );
+        assert!(lights.sample(&above, [0.3, 0.5, 0.5]).map(point).is_none());
     }
 
     /// A downward `n x n` grid of unit-square cells (two triangles each) at `y = 1` over
@@ -642,18 +960,34 @@ mod tests {
         let lights = three();
         // Just below the first square's edge (x = 0), 5 cm down: near, and two triangles are
         // sampled by solid angle, not flagged for more samples.
-        let c = lights.choice(Vec3::new(-0.05, 0.95, 0.5), Vec3::X);
+        let c = lights.choice(
+            Vec3::new(-0.05, 0.95, 0.5),
+            Vec3::X,
+            DirectSampling::PowerOverDistance,
+        );
         assert!(c.by_solid_angle() && !c.near());
         // The same square split into 18 triangles (> SOLID_ANGLE_MAX) keeps area sampling: near.
-        let c = grid(3).choice(Vec3::new(-0.05, 0.95, 0.5), Vec3::X);
+        let c = grid(3).choice(
+            Vec3::new(-0.05, 0.95, 0.5),
+            Vec3::X,
+            DirectSampling::PowerOverDistance,
+        );
         assert!(c.near() && !c.by_solid_angle());
         // 10 below a unit square: 1 / dist^2 varies by a few percent over it.
         let far = Lights::new(lights.triangles()[..2].to_vec());
-        let c = far.choice(Vec3::new(0.5, -9.0, 0.5), Vec3::Y);
+        let c = far.choice(
+            Vec3::new(0.5, -9.0, 0.5),
+            Vec3::Y,
+            DirectSampling::PowerOverDistance,
+        );
         assert!(!c.near() && !c.by_solid_angle());
         // A point in the plane of a flat emitter, beside it, cannot see its lit side: no weight.
-        let side = far.choice(Vec3::new(3.0, 1.0, 0.5), -Vec3::X);
-        assert!(far.sample(&side, [0.5, 0.5, 0.5]).is_none());
+        let side = far.choice(
+            Vec3::new(3.0, 1.0, 0.5),
+            -Vec3::X,
+            DirectSampling::PowerOverDistance,
+        );
+        assert!(far.sample(&side, [0.5, 0.5, 0.5]).map(point).is_none());
     }
 
     /// Samples of `lights` from `x` under `c` on a stratified grid of `u` (4 choices of triangle
@@ -674,7 +1008,10 @@ mod tests {
                     (i as f32 + 0.5) / n as f32,
                     (j as f32 + 0.5) / n as f32,
                 ];
-                let s = lights.sample(c, u).expect("the emitter lights x");
+                let s = lights
+                    .sample(c, u)
+                    .map(point)
+                    .expect("the emitter lights x");
                 let d = s.point - x;
                 let per_sr = f64::from(s.pdf_area) * f64::from(d.length_squared())
                     / f64::from(s.normal.dot(d.normalize()).abs());
@@ -695,7 +1032,7 @@ mod tests {
         // side in solid angle; by solid angle, each region gets its solid-angle share.
         let square = grid(1);
         let x = Vec3::new(0.1, 0.9, 0.15);
-        let c = square.choice(x, Vec3::Y);
+        let c = square.choice(x, Vec3::Y, DirectSampling::PowerOverDistance);
         assert!(c.by_solid_angle());
         // Over a steradian: the f32 sampler takes it.
         let e = &square.emitters[0];
@@ -742,7 +1079,7 @@ mod tests {
         };
         let lights = Lights::new(strip(0.0, len).to_vec());
         let x = v(0.5 * len, 0.5, 0.5 * w);
-        let c = lights.choice(x, Vec3::Y);
+        let c = lights.choice(x, Vec3::Y, DirectSampling::PowerOverDistance);
         assert!(c.by_solid_angle());
         let e = &lights.emitters[0];
         assert!(lights.sample_solid_angle_f32(e, x, 1.0, [0.5; 3]).is_err());
@@ -775,12 +1112,15 @@ mod tests {
         // factor's, and the per-sample spread by solid angle is a fraction of that by area.
         let x = Vec3::new(0.5, 0.95, 0.5);
         let stats = |lights: &Lights| {
-            let c = lights.choice(x, Vec3::Y);
+            let c = lights.choice(x, Vec3::Y, DirectSampling::PowerOverDistance);
             let (mut sum, mut sum2, n) = (0.0f64, 0.0f64, 1 << 16);
             let mut rng = wfic::rng::Rng::new(7);
             for _ in 0..n {
                 let u = [rng.next_f32(), rng.next_f32(), rng.next_f32()];
-                let s = lights.sample(&c, u).expect("the square lights x");
+                let s = lights
+                    .sample(&c, u)
+                    .map(point)
+                    .expect("the square lights x");
                 let d = s.point - x;
                 let w = d.normalize();
                 let e = f64::from(w.y * -s.normal.dot(w) / (d.length_squared() * s.pdf_area));
@@ -803,7 +1143,9 @@ mod tests {
         let exact = 4.0 * corner(0.5, 0.5, 0.05) * std::f64::consts::PI;
         let (by_angle, spread_angle) = stats(&grid(1));
         let (by_area, spread_area) = stats(&grid(3));
-        assert!(grid(3).choice(x, Vec3::Y).near());
+        assert!(grid(3)
+            .choice(x, Vec3::Y, DirectSampling::PowerOverDistance)
+            .near());
         for (name, e) in [("solid angle", by_angle), ("area", by_area)] {
             assert!(
                 (e / exact - 1.0).abs() < 0.05,
@@ -834,7 +1176,7 @@ mod tests {
         ]);
         assert_eq!(lights.emitter_count(), 1);
         let x = Vec3::new(0.6, 0.9, 0.3);
-        let c = lights.choice(x, Vec3::Y);
+        let c = lights.choice(x, Vec3::Y, DirectSampling::PowerOverDistance);
         assert!(c.by_solid_angle());
         let rel = |p: Vec3| (p - x).as_dvec3();
         let omega =
@@ -855,7 +1197,10 @@ mod tests {
         for i in 0..16 {
             for j in 0..16 {
                 let u = [u0, (i as f32 + 0.5) / 16.0, (j as f32 + 0.5) / 16.0];
-                let s = lights.sample(&c, u).expect("the emitter lights x");
+                let s = lights
+                    .sample(&c, u)
+                    .map(point)
+                    .expect("the emitter lights x");
                 assert!(
                     s.point.x >= 1.0 - 1e-6
                         && s.point.x <= 1.002 + 1e-6
@@ -878,13 +1223,17 @@ mod tests {
     fn samples_land_on_the_chosen_triangle_with_its_density() {
         let lights = three();
         // Far enough below that no emitter is near (each is sampled by area).
-        let c = lights.choice(Vec3::new(0.5, -0.5, 0.5), Vec3::Y);
+        let c = lights.choice(
+            Vec3::new(0.5, -0.5, 0.5),
+            Vec3::Y,
+            DirectSampling::PowerOverDistance,
+        );
         assert!(!c.near() && !c.by_solid_angle());
         let mut seen = [0usize; 3];
         let n = 3000;
         for i in 0..n {
             let u0 = (i as f32 + 0.5) / n as f32;
-            let s = lights.sample(&c, [u0, 0.4, 0.6]).unwrap();
+            let s = lights.sample(&c, [u0, 0.4, 0.6]).map(point).unwrap();
             assert!((s.point.y - 1.0).abs() < 1e-6);
             let k = (s.point.x.floor() as usize).min(10);
             let k = match k {

@@ -215,6 +215,13 @@ mod tests {
     }
 
     #[test]
+    fn a_frame_counts_48_bytes_a_pixel() {
+        assert_eq!(frame_bytes(8192, 8192), 3 << 30);
+        assert_eq!(frame_bytes(1, 1), 48);
+        assert_eq!(frame_bytes(16_384, 1), 48 * 16_384);
+    }
+
+    #[test]
     fn an_error_names_the_setting_or_the_option_the_value_and_the_range() {
         let e = PIXEL_SAMPLES.check(0).unwrap_err();
         assert_eq!(e.to_string(), "pixel_samples 0 is not in [1, 4096]");

@@ -8,7 +8,7 @@ use super::camera::{Camera, Orbit};
 /// [`super::colour`], which the lights use too).
 pub use super::colour::luminance;
 use super::flat::{FlatTriangles, Traversal};
-use super::lights::{Light, LightChoice, LightSample, Lights};
+use super::lights::{DirectSampling, Light, LightChoice, Lights, Sampled};
 use glam::{Vec3, Vec3A};
 use obvhs::cwbvh::{builder::build_cwbvh_from_tris, CwBvh};
 use obvhs::ray::{Ray, RayHit};
@@ -114,6 +114,34 @@ impl SceneBuilder {
         self.triangle(a, c, d, m);
     }
 
+    /// Adds a sphere as a latitude/longitude grid of `segments` sectors by `bands` rings, facing
+    /// out, its corners on the sphere (inscribed): `2 segments (bands - 1)` triangles (a bulb as
+    /// the office's conversion tessellates them, 24 by 12).
+    pub fn sphere(&mut self, center: Vec3, radius: f32, segments: u32, bands: u32, m: MaterialId) {
+        let point = |band: u32, seg: u32| {
+            let theta = std::f32::consts::PI * band as f32 / bands as f32;
+            let phi = std::f32::consts::TAU * (seg % segments) as f32 / segments as f32;
+            if band == 0 || band == bands {
+                // The poles exactly, so their triangles share one corner.
+                return center + Vec3::Y * (radius * theta.cos());
+            }
+            let (s, c) = theta.sin_cos();
+            center + radius * Vec3::new(s * phi.cos(), c, s * phi.sin())
+        };
+        for band in 0..bands {
+            for seg in 0..segments {
+                let (a, b) = (point(band, seg), point(band, seg + 1));
+                let (c, d) = (point(band + 1, seg + 1), point(band + 1, seg));
+                if band != 0 {
+                    self.triangle(a, b, c, m);
+                }
+                if band != bands - 1 {
+                    self.triangle(a, c, d, m);
+                }
+            }
+        }
+    }
+
     /// Triangles added so far.
     pub fn triangle_count(&self) -> usize {
         self.triangles.len()
@@ -192,9 +220,11 @@ impl SceneBuilder {
         // Lights: every emissive triangle of the *input* (not the BVH copy, which may repeat a
         // triangle under spatial splits), grouped into emitters ([`Lights`]).
         let mut lights = Vec::new();
-        for (t, &m) in triangles.iter().zip(&material_of) {
+        let mut light_of = vec![u32::MAX; triangles.len()];
+        for (i, (t, &m)) in triangles.iter().zip(&material_of).enumerate() {
             let mat = self.materials[m as usize];
             if mat.is_emissive() {
+                light_of[i] = lights.len() as u32;
                 let (a, b, c) = (Vec3::from(t.v0), Vec3::from(t.v1), Vec3::from(t.v2));
                 let cross = (b - a).cross(c - a);
                 lights.push(Light {
@@ -209,7 +239,16 @@ impl SceneBuilder {
             return Err(SceneError::NoLights(name.to_owned()));
         }
         let lights = Lights::new(lights);
+        let emitter_of = bvh
+            .primitive_indices
+            .iter()
+            .map(|&i| match light_of[i as usize] {
+                u32::MAX => u32::MAX,
+                l => lights.emitter_of(l as usize),
+            })
+            .collect();
         Ok(Scene {
+            emitter_of,
             name: name.to_owned(),
             input_triangles: triangles.len(),
             tris,
@@ -257,6 +296,8 @@ pub struct Scene {
     name: String,
     input_triangles: usize,
     tris: Vec<Tri>,
+    /// Per triangle of `tris`, the emitter it belongs to (`u32::MAX`: it emits nothing).
+    emitter_of: Vec<u32>,
     /// The same triangles with their edges and normal precomputed for intersection (obvhs's
     /// `RtTriangle`), apart from `tris` so traversal reads 64 bytes a triangle and no more.
     rt: Vec<RtTriangle>,
@@ -389,17 +430,7 @@ impl Scene {
     /// The closest hit along the unit ray `origin + t dir`, `t` in `(0, t_max)`.
     #[inline]
     pub fn intersect(&self, origin: Vec3, dir: Vec3, t_max: f32) -> Option<Hit> {
-        // The distance and the index (in `tris`' order) of the nearest triangle.
-        let nearest = if let Some(flat) = &self.flat {
-            flat.closest(origin, dir, t_max)
-        } else {
-            let ray = Ray::new(Vec3A::from(origin), Vec3A::from(dir), 0.0, t_max);
-            let mut hit = RayHit::none();
-            self.bvh
-                .ray_traverse(ray, &mut hit, |r, id| self.rt[id].intersect(r))
-                .then_some((hit.t, hit.primitive_id))
-        };
-        nearest.map(|(t, id)| {
+        self.nearest(origin, dir, t_max).map(|(t, id)| {
             let tri = &self.tris[id as usize];
             Hit {
                 t,
@@ -407,6 +438,20 @@ impl Scene {
                 material: self.materials[tri.material as usize],
             }
         })
+    }
+
+    /// The distance and the index (in `tris`' order) of the nearest triangle the unit ray meets.
+    #[inline]
+    fn nearest(&self, origin: Vec3, dir: Vec3, t_max: f32) -> Option<(f32, u32)> {
+        if let Some(flat) = &self.flat {
+            flat.closest(origin, dir, t_max)
+        } else {
+            let ray = Ray::new(Vec3A::from(origin), Vec3A::from(dir), 0.0, t_max);
+            let mut hit = RayHit::none();
+            self.bvh
+                .ray_traverse(ray, &mut hit, |r, id| self.rt[id].intersect(r))
+                .then_some((hit.t, hit.primitive_id))
+        }
     }
 
     /// True when nothing blocks the unit ray `origin + t dir` for `t` in `(0, t_max)`.
@@ -422,21 +467,43 @@ impl Scene {
 
     /// The emitter probabilities at `x` with unit facing normal `n` ([`Lights::choice`]).
     #[inline]
-    pub fn light_choice(&self, x: Vec3, n: Vec3) -> LightChoice {
-        self.lights.choice(x, n)
+    pub fn light_choice(&self, x: Vec3, n: Vec3, sampling: DirectSampling) -> LightChoice {
+        self.lights.choice(x, n, sampling)
     }
 
     /// [`Scene::light_choice`] written into `choice` ([`Lights::choice_into`]).
     #[inline]
-    pub fn light_choice_into(&self, x: Vec3, n: Vec3, choice: &mut LightChoice) {
-        self.lights.choice_into(x, n, choice)
+    pub fn light_choice_into(
+        &self,
+        x: Vec3,
+        n: Vec3,
+        sampling: DirectSampling,
+        choice: &mut LightChoice,
+    ) {
+        self.lights.choice_into(x, n, sampling, choice)
     }
 
-    /// The light point for the uniform numbers `u` in `[0, 1)^3` under `choice`
+    /// The light sample for the uniform numbers `u` in `[0, 1)^3` under `choice`
     /// ([`Lights::sample`]); `None` when no emitter can light the point.
     #[inline]
-    pub fn light_sample(&self, choice: &LightChoice, u: [f32; 3]) -> Option<LightSample> {
+    pub fn light_sample(&self, choice: &LightChoice, u: [f32; 3]) -> Option<Sampled> {
         self.lights.sample(choice, u)
+    }
+
+    /// A sample of emitter `k` alone ([`Lights::sample_emitter`]).
+    #[inline]
+    pub fn emitter_sample(&self, choice: &LightChoice, k: usize, u: [f32; 3]) -> Option<Sampled> {
+        self.lights.sample_emitter(choice, k, 1.0, u)
+    }
+
+    /// The emitter whose front face the unit ray `origin + t dir`, `t < t_max`, meets first, if
+    /// what it meets first is an emitter's front face.
+    #[inline]
+    pub fn emitter_hit(&self, origin: Vec3, dir: Vec3, t_max: f32) -> Option<u32> {
+        let (_, id) = self.nearest(origin, dir, t_max)?;
+        let tri = &self.tris[id as usize];
+        let emitter = self.emitter_of[id as usize];
+        (emitter != u32::MAX && tri.normal.dot(dir) < 0.0).then_some(emitter)
     }
 
     /// Emitters: touching emissive triangles of one radiance.

@@ -1,6 +1,7 @@
 //! How a frame is rendered ([`RenderSettings`]) and where its workers run ([`Pool`]): plain
 //! settings that the integrator, the render loops and the statistics read.
 
+pub use super::lights::DirectSampling;
 use super::limits::{self, OutOfRange};
 use super::scene::Scene;
 use std::fmt;
@@ -81,6 +82,9 @@ pub struct RenderSettings {
     /// Render deterministic frames ([`crate::deterministic`]): the same image and records at any
     /// thread count and on either pool.
     pub deterministic: bool,
+    /// How the direct light is sampled ([`DirectSampling`]; the default samples every emitter
+    /// that can reach a point, by the light-bounds importance, spheres by cone).
+    pub direct: DirectSampling,
 }
 
 impl RenderSettings {
@@ -103,6 +107,7 @@ impl RenderSettings {
             quiet: true,
             pool: Pool::Scoped,
             deterministic: false,
+            direct: DirectSampling::Bounds,
         }
     }
 
@@ -300,6 +305,17 @@ mod tests {
             edit(&mut s, true);
             assert_eq!(s.validate().unwrap_err().setting, field);
         }
+    }
+
+    /// The errors of a cache configuration name the setting or the scene's bounds.
+    #[test]
+    fn a_settings_error_says_which_setting() {
+        let e = SettingsError::Range(RenderSettings::new(0, 4).validate().unwrap_err());
+        assert_eq!(e.to_string(), "width 0 is not in [1, 16384]");
+        let bad = CacheConfig::new(glam::Vec3::ZERO, glam::Vec3::ZERO, 0.5).unwrap_err();
+        assert!(SettingsError::Cache(bad).to_string().contains("bounds"));
+        assert_eq!(Pool::Scoped.name(), "threads");
+        assert_eq!(Pool::Rayon.name(), "rayon");
     }
 
     /// The pixel count is bounded beyond each side's, and the smoothing jointly with the

@@ -156,47 +156,11 @@ fn edge_components(all: &[[Vec3; 3]], tris: &[usize]) -> Vec<Vec<usize>> {
     out
 }
 
-/// The sphere `group` tessellates, if it is a closed surface of at least 8 triangles whose
-/// vertices lie within 2% of one distance from their centre and whose triangles all face away
-/// from it: `(centre, radius of equal area)`.
+/// The sphere `group` tessellates ([`wfic_render::lights::sphere_like`]): its centre and the
+/// radius of the sphere of its area.
 fn as_sphere(all: &[[Vec3; 3]], group: &[usize]) -> Option<(Vec3, f32)> {
-    if group.len() < 8 {
-        return None;
-    }
-    let mut edges: HashMap<(Key, Key), u32> = HashMap::new();
-    let mut vertices: HashMap<Key, DVec3> = HashMap::new();
-    for &t in group {
-        let v = all[t];
-        for e in 0..3 {
-            let (a, b) = (key(v[e]), key(v[(e + 1) % 3]));
-            *edges
-                .entry(if a < b { (a, b) } else { (b, a) })
-                .or_default() += 1;
-            vertices.insert(a, dv(v[e]));
-        }
-    }
-    if edges.values().any(|&n| n != 2) {
-        return None;
-    }
-    let center = vertices.values().sum::<DVec3>() / vertices.len() as f64;
-    let mean = vertices.values().map(|v| v.distance(center)).sum::<f64>() / vertices.len() as f64;
-    if vertices
-        .values()
-        .any(|v| (v.distance(center) - mean).abs() > 0.02 * mean)
-    {
-        return None;
-    }
-    let mut area = 0.0;
-    for &t in group {
-        let [a, b, c] = all[t].map(dv);
-        let n = (b - a).cross(c - a);
-        if n.dot((a + b + c) / 3.0 - center) <= 0.0 {
-            return None;
-        }
-        area += 0.5 * n.length();
-    }
-    let radius = (area / (4.0 * std::f64::consts::PI)).sqrt();
-    Some((center.as_vec3(), radius as f32))
+    let corners: Vec<[Vec3; 3]> = group.iter().map(|&t| all[t]).collect();
+    wfic_render::lights::sphere_like(&corners).map(|s| (s.center, s.area_radius))
 }
 
 /// The triangles of `group` split by plane: unit normal within 1e-4, offset within 1e-5 of the
@@ -423,35 +387,7 @@ mod tests {
             v(2.0, 0.0, -2.0),
             white,
         );
-        let (c, r) = (v(0.3, 1.0, -0.2), 0.0317);
-        let pt = |band: u32, seg: u32| {
-            let theta = std::f32::consts::PI * band as f32 / 12.0;
-            let phi = 2.0 * std::f32::consts::PI * (seg % 24) as f32 / 24.0;
-            if band == 0 || band == 12 {
-                return c + v(0.0, r * theta.cos(), 0.0);
-            }
-            c + r * v(
-                theta.sin() * phi.cos(),
-                theta.cos(),
-                theta.sin() * phi.sin(),
-            )
-        };
-        for band in 0..12 {
-            for seg in 0..24 {
-                let (a, b_, cc, d) = (
-                    pt(band, seg),
-                    pt(band, seg + 1),
-                    pt(band + 1, seg + 1),
-                    pt(band + 1, seg),
-                );
-                if band != 0 {
-                    b.triangle(a, b_, cc, bulb);
-                }
-                if band != 11 {
-                    b.triangle(a, cc, d, bulb);
-                }
-            }
-        }
+        b.sphere(v(0.3, 1.0, -0.2), 0.0317, 24, 12, bulb);
         b.quad(
             v(-0.5, 2.0, -0.5),
             v(0.5, 2.0, -0.5),
