@@ -8,9 +8,10 @@
 //!   of the hits' sample variances of luminance over the sum of their squared means; its time
 //!   the seconds of its calls. The ratio of `variance x time`, old over new, is how many times
 //!   less work the new estimator needs for the same noise.
-//! - **Noise in the renders.** Each scene at the default render settings (`wf`, one thread), twice
-//!   per estimator, the seeds apart: the noise is the RMS difference of luminance between the
-//!   two over the pixels that see no emitter, over `sqrt 2` and the mean. Also the frame times,
+//! - **Noise in the renders.** Each scene at the default render settings (`wf`, one thread), three
+//!   times per estimator, the seeds apart: the noise is the RMS difference of luminance between the
+//!   first two over the pixels that see no emitter, over `sqrt 2` and the mean. Also the median
+//!   frame time,
 //!   and crops of the noisiest window side by side (`direct-crops.png`).
 
 use crate::harness::metrics::surface_mask;
@@ -105,6 +106,8 @@ pub struct Direct {
     pub efficiency: Vec<Efficiency>,
     /// Every estimator and scene, baseline first.
     pub renders: Vec<Renders>,
+    /// Per scene, the noise at [`FLOOR_SAMPLES`] light samples (the new estimator).
+    pub floors: Vec<f64>,
 }
 
 /// The primary hits of `scene` on a `probe x probe` grid: position and facing normal.
@@ -163,38 +166,68 @@ fn efficiency(scene: &Scene, config: &DirectConfig, samples: u32) -> [Efficiency
     })
 }
 
-/// Both estimators' renders of `scene`: two seeds each, interleaved.
-fn renders(scene: &Scene, size: u32) -> Result<[Renders; 2], String> {
+/// The seed-to-seed noise of `a` against `b` over the masked pixels: RMS difference of
+/// luminance over `sqrt 2` and the mean.
+fn noise(a: &Image, b: &Image, mask: &[bool]) -> f64 {
+    let (mut diff, mut sum, mut n) = (0.0f64, 0.0f64, 0.0f64);
+    for ((p, q), &m) in a.pixels().iter().zip(b.pixels()).zip(mask) {
+        if m {
+            let (lp, lq) = (f64::from(luminance(*p)), f64::from(luminance(*q)));
+            diff += (lp - lq) * (lp - lq);
+            sum += 0.5 * (lp + lq);
+            n += 1.0;
+        }
+    }
+    (diff / (2.0 * n)).sqrt() / (sum / n).max(f64::MIN_POSITIVE)
+}
+
+/// A default render of `scene` at `size` with `estimator`, `light_samples` and `seed`: its image
+/// and seconds.
+fn render(
+    scene: &Scene,
+    size: u32,
+    estimator: DirectSampling,
+    light_samples: u32,
+    seed: u64,
+) -> Result<(Image, f64), String> {
+    let mut s = RenderSettings::new(size, size)
+        .seed(seed)
+        .light_samples(light_samples);
+    s.direct = estimator;
+    let config = s.cache_config(scene).map_err(|e| e.to_string())?;
+    let frame = render_with_scheme(Scheme::Wf, scene, &scene.camera(), &s, config, 1).0;
+    Ok((frame.image, frame.stats.seconds))
+}
+
+/// Light samples of the renders that show the cache's own noise.
+pub const FLOOR_SAMPLES: u32 = 256;
+
+/// Both estimators' renders of `scene` (three seeds each, interleaved), and the noise of the new
+/// estimator at [`FLOOR_SAMPLES`] light samples: what is left when the direct light's noise is
+/// all but gone, the cache's.
+fn renders(scene: &Scene, size: u32) -> Result<([Renders; 2], f64), String> {
     let mut images: [Vec<(Image, f64)>; 2] = [Vec::new(), Vec::new()];
-    for seed in [0x5eed, 0x5eef] {
+    let defaults = RenderSettings::new(size, size).light_samples;
+    // Two seeds for the noise, a third for a steadier median time.
+    for seed in [0x5eed, 0x5eef, 0x5ef1] {
         for (e, estimator) in ESTIMATORS.into_iter().enumerate() {
-            let mut s = RenderSettings::new(size, size).seed(seed);
-            s.direct = estimator;
-            let config = s.cache_config(scene).map_err(|e| e.to_string())?;
-            let frame = render_with_scheme(Scheme::Wf, scene, &scene.camera(), &s, config, 1).0;
-            images[e].push((frame.image, frame.stats.seconds));
+            images[e].push(render(scene, size, estimator, defaults, seed)?);
         }
     }
     let mask = surface_mask(scene, &RenderSettings::new(size, size), 1);
-    Ok([0, 1].map(|e| {
-        let (a, b) = (&images[e][0].0, &images[e][1].0);
-        let (mut diff, mut sum, mut n) = (0.0f64, 0.0f64, 0.0f64);
-        for ((p, q), &m) in a.pixels().iter().zip(b.pixels()).zip(&mask) {
-            if m {
-                let (lp, lq) = (f64::from(luminance(*p)), f64::from(luminance(*q)));
-                diff += (lp - lq) * (lp - lq);
-                sum += 0.5 * (lp + lq);
-                n += 1.0;
-            }
-        }
-        Renders {
-            scene: scene.name().to_owned(),
-            estimator: ESTIMATORS[e],
-            noise: (diff / (2.0 * n)).sqrt() / (sum / n).max(f64::MIN_POSITIVE),
-            seconds: median(&images[e].iter().map(|(_, t)| *t).collect::<Vec<_>>()),
-            image: images[e][0].0.clone(),
-        }
-    }))
+    let floor = {
+        let a = render(scene, size, DirectSampling::Bounds, FLOOR_SAMPLES, 0x5eed)?.0;
+        let b = render(scene, size, DirectSampling::Bounds, FLOOR_SAMPLES, 0x5eef)?.0;
+        noise(&a, &b, &mask)
+    };
+    let rows = [0, 1].map(|e| Renders {
+        scene: scene.name().to_owned(),
+        estimator: ESTIMATORS[e],
+        noise: noise(&images[e][0].0, &images[e][1].0, &mask),
+        seconds: median(&images[e].iter().map(|(_, t)| *t).collect::<Vec<_>>()),
+        image: images[e][0].0.clone(),
+    });
+    Ok((rows, floor))
 }
 
 /// Runs the experiment; `progress(label)` before each scene's steps.
@@ -202,19 +235,22 @@ fn renders(scene: &Scene, size: u32) -> Result<[Renders; 2], String> {
 /// # Errors
 /// An unknown scene.
 pub fn run(config: &DirectConfig, progress: &mut dyn FnMut(&str)) -> Result<Direct, String> {
-    let (mut efficiency_rows, mut render_rows) = (Vec::new(), Vec::new());
+    let (mut efficiency_rows, mut render_rows, mut floors) = (Vec::new(), Vec::new(), Vec::new());
     for name in &config.scenes {
         let scene = scenes::load(name)?;
         for &samples in &config.samples {
             progress(&format!("{name}: estimators at {samples} light samples"));
             efficiency_rows.extend(efficiency(&scene, config, samples));
         }
-        progress(&format!("{name}: renders, two seeds per estimator"));
-        render_rows.extend(renders(&scene, config.size)?);
+        progress(&format!("{name}: renders, three seeds per estimator"));
+        let (rows, floor) = renders(&scene, config.size)?;
+        render_rows.extend(rows);
+        floors.push(floor);
     }
     Ok(Direct {
         efficiency: efficiency_rows,
         renders: render_rows,
+        floors,
     })
 }
 
@@ -292,7 +328,19 @@ impl Direct {
             .col("seed-to-seed noise", "noise", |r| {
                 format!("{:.2}%", 100.0 * r.noise)
             })
-            .col("frame seconds (median of 2)", "seconds", |r| {
+            .col("the same at 256 light samples", "floor", |r| {
+                let i = self
+                    .renders
+                    .iter()
+                    .position(|o| o.scene == r.scene)
+                    .unwrap_or(0)
+                    / 2;
+                match (r.estimator, self.floors.get(i)) {
+                    (DirectSampling::Bounds, Some(f)) => format!("{:.2}%", 100.0 * f),
+                    _ => String::new(),
+                }
+            })
+            .col("frame seconds (median of 3)", "seconds", |r| {
                 format!("{:.3}", r.seconds)
             });
         let render_rows: Vec<&Renders> = self.renders.iter().collect();

@@ -228,8 +228,9 @@ pub fn direct_irradiance(
     let origin = x + n * eps;
     let choice = scene.light_choice(origin, n, sampling);
     let reachable = choice.reachable_count();
+    // One emitter alone: the choice below samples it just as this would, for less.
     if sampling == DirectSampling::Bounds
-        && reachable > 0
+        && reachable > 1
         && reachable <= EVERY_EMITTER_MAX
         && samples as usize >= reachable
     {
@@ -484,7 +485,7 @@ impl Hemisphere {
                         (b as f32 + rng.next_f32()) * inv_nn,
                     ];
                     let oy = y + ny * eps;
-                    scene.light_choice_into(oy, ny, sampling, &mut lights);
+                    scene.light_choice_into_at_hit(oy, ny, sampling, &mut lights);
                     // Next to an emitter sampled by area one sample's `1 / d^2` varies by more
                     // than 4x over it: take NEAR_HIT_SAMPLES there.
                     let ed = if lights.near() {

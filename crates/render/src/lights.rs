@@ -44,6 +44,10 @@ use std::collections::HashMap;
 /// Most emitters weighed per shading point; more fall back to choice by power.
 pub const MAX_WEIGHED: usize = 64;
 
+/// Most emitters a scene may have for the light sample at a record's hemisphere hits to weigh
+/// them by importance ([`Lights::choice_into_at_hit`]).
+pub const IMPORTANCE_AT_HITS_MAX: usize = 4;
+
 /// Most triangles of an emitter sampled by solid angle where it is near (module doc).
 pub const SOLID_ANGLE_MAX: usize = 8;
 
@@ -686,6 +690,36 @@ impl Lights {
         sampling: DirectSampling,
         choice: &mut LightChoice,
     ) {
+        self.weigh_into(x, n, sampling, sampling == DirectSampling::Bounds, choice);
+    }
+
+    /// [`Lights::choice_into`] for the one light sample at a hemisphere hit of a record: under
+    /// [`DirectSampling::Bounds`] the emitters are weighed by importance only when there are at
+    /// most [`IMPORTANCE_AT_HITS_MAX`] of them, else by power over distance (how a chosen
+    /// emitter is sampled, its cone included, stays `sampling`'s). A record averages hundreds of
+    /// hits, which averages the choice's noise too, while the importance's cost grows with the
+    /// emitters at every hit: `results/direct` measured the conference room's twelve troffers
+    /// both ways.
+    pub fn choice_into_at_hit(
+        &self,
+        x: Vec3,
+        n: Vec3,
+        sampling: DirectSampling,
+        choice: &mut LightChoice,
+    ) {
+        let by_importance =
+            sampling == DirectSampling::Bounds && self.emitters.len() <= IMPORTANCE_AT_HITS_MAX;
+        self.weigh_into(x, n, sampling, by_importance, choice);
+    }
+
+    fn weigh_into(
+        &self,
+        x: Vec3,
+        n: Vec3,
+        sampling: DirectSampling,
+        by_importance: bool,
+        choice: &mut LightChoice,
+    ) {
         choice.len = 0;
         choice.by_power = self.emitters.len() > MAX_WEIGHED;
         choice.near = false;
@@ -698,9 +732,12 @@ impl Lights {
         let mut total = 0.0f32;
         for (k, e) in self.emitters.iter().enumerate() {
             let d = e.center - x;
-            let weight = match sampling {
-                DirectSampling::Bounds => importance(e, x, n),
-                DirectSampling::PowerOverDistance => power_over_distance(e, d, n),
+            // With one emitter only whether it can reach x matters, and the cheaper test of
+            // the two (both are zero only where it cannot) answers that.
+            let weight = if by_importance && self.emitters.len() > 1 {
+                importance(e, x, n)
+            } else {
+                power_over_distance(e, d, n)
             };
             if weight > 0.0 {
                 total += weight;
