@@ -10,7 +10,7 @@ pub(crate) mod schedule;
 
 pub use export::{write_rad, Export, Source};
 pub use rtrace::{shared_ambient, RadianceBin, Rtrace, SharedAmbientRun};
-use schedule::{matched, picks, sweep, SceneReferences};
+use schedule::{image_picks, matched, picks, sweep, SceneReferences};
 
 use crate::harness::metrics::{image_error, masked_mean, ImageError};
 use crate::harness::stats::{self, median};
@@ -133,6 +133,18 @@ pub enum Role {
     },
     /// The light-sample study at the pick.
     LightSamples,
+    /// A renderer's converged image (no cache; Radiance with jittered, finely subdivided
+    /// sources; wfic with many light samples): what its image error is measured against.
+    Converged,
+    /// The cheapest measured wfic setting whose image error is at or below Radiance's, against
+    /// each renderer's own converged image, rendered again at `workers` (`reached`: it is;
+    /// else the setting of least image error).
+    ImagePick {
+        /// Whether it reached Radiance's image error.
+        reached: bool,
+        /// The worker count it is the pick of.
+        workers: usize,
+    },
 }
 
 impl Role {
@@ -149,6 +161,14 @@ impl Role {
             Role::Sweep => "sweep",
             Role::PickTried => "pick-tried",
             Role::LightSamples => "light-samples",
+            Role::Converged => "converged",
+            Role::ImagePick {
+                reached: true,
+                workers: 1,
+            } => "equal-image-1",
+            Role::ImagePick { reached: true, .. } => "equal-image-2",
+            Role::ImagePick { workers: 1, .. } => "least-image-error-1",
+            Role::ImagePick { .. } => "least-image-error-2",
             Role::Pick { reached, workers } => match (reached, workers) {
                 (true, None) => "equal-error",
                 (true, Some(1)) => "equal-error-1",
@@ -186,8 +206,11 @@ pub struct Run {
     pub records: usize,
     /// Against the renderer's own brute-force image.
     pub cache_error: ImageError,
-    /// Against the converged reference.
+    /// Against the converged reference (wfic's: the common one).
     pub image_error: ImageError,
+    /// Against the renderer's own converged image (for wfic the same as `image_error`; NaN
+    /// where the renderer has none, Radiance's original model).
+    pub own_image_error: ImageError,
     /// Renders behind the row ([`RadianceConfig::repeats`]): `seconds` is their median,
     /// `records` their median, the errors their mean.
     pub repeats: u32,
@@ -218,6 +241,7 @@ impl Run {
             records: 0,
             cache_error: ImageError::default(),
             image_error: ImageError::default(),
+            own_image_error: ImageError::default(),
             repeats: 1,
             cache_error_range: (0.0, 0.0),
         }
@@ -237,6 +261,7 @@ impl Run {
             records: median(&records).round() as usize,
             cache_error: mean_error(|r| r.cache_error),
             image_error: mean_error(|r| r.image_error),
+            own_image_error: mean_error(|r| r.own_image_error),
             cache_error_range: stats::range(runs.iter().map(|r| r.cache_error.rel_rmse)),
             repeats: runs.iter().map(|r| r.repeats).sum(),
             ..runs[0].clone()
@@ -362,6 +387,7 @@ pub fn compare_scene(
             runs.push(run);
         }
     }
+    image_picks(config, scene, &refs, &mut runs)?;
     report::write_side_by_side(
         &out_dir.join(format!("{name}-side-by-side.png")),
         [&images[0], &images[1]],
@@ -447,9 +473,41 @@ mod tests {
             records: 100,
             cache_error: e,
             image_error: e,
+            own_image_error: e,
             repeats: 1,
             cache_error_range: (error, error),
         }
+    }
+
+    /// The equal-image pick: the cheapest 2-thread wfic row at or below the target, else the
+    /// one of least image error; a 1-thread row is no candidate.
+    #[test]
+    fn the_image_pick_is_the_cheapest_at_or_below_radiance_else_the_least_error() {
+        use super::schedule::image_candidate;
+        let runs = vec![
+            one_run("wfic", r("sweep"), 2, 1.0, 0.05),
+            one_run("wfic", r("light-samples"), 2, 0.5, 0.08),
+            one_run("wfic", r("light-samples"), 2, 2.0, 0.03),
+            one_run("wfic", r("light-samples"), 1, 0.1, 0.01),
+            one_run("radiance", r("matched"), 2, 0.01, 0.01),
+        ];
+        assert_eq!(image_candidate(&runs, 0.06), Some((true, &runs[0])));
+        assert_eq!(image_candidate(&runs, 0.09), Some((true, &runs[1])));
+        assert_eq!(image_candidate(&runs, 0.01), Some((false, &runs[2])));
+        let pick = |reached, seconds, error| Run {
+            role: Role::ImagePick {
+                reached,
+                workers: 1,
+            },
+            ..one_run("wfic", r("sweep"), 1, seconds, error)
+        };
+        let rad = one_run("radiance", r("matched"), 1, 10.0, 0.05);
+        assert_eq!(report::image_goal(&pick(true, 0.9, 0.05), &rad), "yes");
+        assert_eq!(report::image_goal(&pick(true, 1.1, 0.05), &rad), "NO");
+        assert_eq!(
+            report::image_goal(&pick(false, 0.1, 0.08), &rad),
+            "NO: error above"
+        );
     }
 
     #[test]

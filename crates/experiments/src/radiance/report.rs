@@ -189,7 +189,79 @@ fn matched_markdown(results: &[SceneComparison]) -> String {
         .md("records 2/1", move |((_, run), one)| records(run, one))
         .md("cache error", |((_, run), _)| both(&run.cache_error))
         .md("image error", |((_, run), _)| both(&run.image_error))
+        .md("image error, own converged", |((_, run), _)| {
+            both(&run.own_image_error)
+        })
         .markdown(&rows)
+}
+
+/// The image goal: the pick reached Radiance's image error (each against its own converged
+/// image) in at most a tenth of its time.
+pub fn image_goal(wf: &Run, rad: &Run) -> &'static str {
+    match wf.role {
+        Role::ImagePick { reached: true, .. }
+            if wf.own_image_error.rel_rmse <= rad.own_image_error.rel_rmse =>
+        {
+            if wf.seconds <= 0.1 * rad.seconds {
+                "yes"
+            } else {
+                "NO"
+            }
+        }
+        _ => "NO: error above",
+    }
+}
+
+/// The time at equal image error, each scene's worker counts: Radiance's matched row beside
+/// the count's image pick.
+fn equal_image_markdown(results: &[SceneComparison]) -> String {
+    let mut rows = Vec::new();
+    for r in results {
+        for workers in [1, 2] {
+            let wf = [true, false]
+                .into_iter()
+                .find_map(|reached| r.find("wfic", Role::ImagePick { reached, workers }, workers));
+            if let (Some(wf), Some(rad)) = (wf, r.find("radiance", Role::Matched, workers)) {
+                rows.push((r, rad, wf));
+            }
+        }
+    }
+    let t = Table::new()
+        .md("scene", |(r, ..): &(&SceneComparison, &Run, &Run)| {
+            r.scene.clone()
+        })
+        .left()
+        .md("workers", |(_, _, wf)| wf.workers.to_string())
+        .md("radiance s", |(_, rad, _)| secs(rad.seconds))
+        .md(
+            "radiance image error: own converged, wfic's",
+            |(_, rad, _)| {
+                format!(
+                    "{}, {}",
+                    pct(rad.own_image_error.rel_rmse),
+                    pct(rad.image_error.rel_rmse)
+                )
+            },
+        )
+        .md("wfic setting", |(_, _, wf)| {
+            format!(
+                "{}: {} L {}",
+                wf.role.name(),
+                wfic_setting(wf),
+                wf.light_samples
+            )
+        })
+        .left()
+        .md("wfic s", |(_, _, wf)| secs(wf.seconds))
+        .md("wfic image error", |(_, _, wf)| {
+            pct(wf.own_image_error.rel_rmse)
+        })
+        .md("time ratio wfic/radiance", |(_, rad, wf)| {
+            format!("{:.4}", wf.seconds / rad.seconds)
+        })
+        .md("goal <= 0.1", |(_, rad, wf)| image_goal(wf, rad).to_owned())
+        .left();
+    format!("\n## Time at equal image error\n\n{}", t.markdown(&rows))
 }
 
 /// The extra records of the pick in `role` at 2 workers over 1.
@@ -368,6 +440,7 @@ pub fn markdown(config: &RadianceConfig, results: &[SceneComparison], version: &
         intro(config, version),
         matched_markdown(results),
         equal_error_markdown(results),
+        equal_image_markdown(results),
         light_markdown(results),
         sweep_markdown(results),
         "\nSide-by-side images: `SCENE-side-by-side.png`.\n".to_owned(),
@@ -416,6 +489,12 @@ fn runs_table<'a>() -> Table<'a, Row<'a>> {
         })
         .csv_as(move |(_, x)| e6(x.image_error.rel_rmse))
         .csv("image_mean_rel", move |(_, x)| e6(x.image_error.mean_rel))
+        .csv("own_image_rel_rmse", move |(_, x)| {
+            e6(x.own_image_error.rel_rmse)
+        })
+        .csv("own_image_mean_rel", move |(_, x)| {
+            e6(x.own_image_error.mean_rel)
+        })
         .csv("repeats", |(_, x)| x.repeats.to_string())
         .csv("cache_rel_rmse_min", move |(_, x)| {
             e6(x.cache_error_range.0)

@@ -350,6 +350,18 @@ impl<'a> Rtrace<'a> {
         Ok((read_floats(&out, self.size, self.stride)?, seconds))
     }
 
+    /// Radiance's converged image on the grid, what a Radiance user would take as the truth of
+    /// the scene: no cache (`-aa 0`), `rays` rays (`-ad`), every source tested (`-dt 0 -dc 1`),
+    /// sources subdivided finely (`-ds 0.02`) and jittered (`-dj 0.9`), 2 processes; and its
+    /// seconds.
+    pub fn converged(&self, rays: u32) -> Result<(Image, f64), String> {
+        let out = self.work.join("converged.f32");
+        let args = format!("-aa 0 -ad {rays} -as 0 -dt 0 -dc 1 -ds 0.02 -dj 0.9");
+        let cmd = self.rtrace(&args, 2, None);
+        let seconds = run_to_file(cmd, Some(&self.grid_rays), &out, "rtrace (converged)")?;
+        Ok((read_floats(&out, self.size, self.stride)?, seconds))
+    }
+
     /// A cached image of every pixel (`-ad rays -as 0 -aa accuracy -ar resolution`) by
     /// `workers` processes sharing the fresh ambient file `NAME.amb`: the image, its seconds,
     /// the records and bytes of the ambient file.

@@ -4,7 +4,7 @@
 
 use super::{report, say, RadianceConfig, Role, Rtrace, Run};
 use crate::harness::measure::repeat;
-use crate::harness::metrics::{image_error, surface_mask};
+use crate::harness::metrics::{image_error, surface_mask, ImageError};
 use wfic::cache::Scheme;
 use wfic_render::film::Image;
 use wfic_render::{render_reference_grid, render_with_scheme, RenderSettings, Scene};
@@ -23,6 +23,8 @@ fn seed_of(i: u32) -> u64 {
 pub(super) struct SceneReferences {
     pub(super) mask: Vec<bool>,
     pub(super) radiance: Image,
+    /// Radiance's converged image ([`Rtrace::converged`]): its image error's reference.
+    pub(super) radiance_converged: Image,
     /// Radiance's brute-force image of its own original model, when it runs.
     pub(super) original: Option<Image>,
     pub(super) wfic_own: Vec<Image>,
@@ -46,6 +48,11 @@ impl SceneReferences {
             k * k
         );
         let (radiance, radiance_seconds) = rtrace.reference(n4)?;
+        say!(
+            name,
+            "radiance converged: -aa 0 -ad {n4} -dt 0 -dc 1 -ds 0.02 -dj 0.9"
+        );
+        let (radiance_converged, radiance_converged_seconds) = rtrace.converged(n4)?;
         let original = match original {
             Some(o) => {
                 say!(name, "radiance reference of the original model");
@@ -73,8 +80,11 @@ impl SceneReferences {
         );
         let converged_settings = config.settings(config.accuracy, n4, light, 0xc0ffee);
         let wfic_seconds = own[0].1;
+        let (converged, converged_seconds) =
+            render_reference_grid(scene, &camera, &converged_settings, rc, 2, k);
         let refs = Self {
-            converged: render_reference_grid(scene, &camera, &converged_settings, rc, 2, k).0,
+            converged,
+            radiance_converged,
             mask: surface_mask(scene, &s, k),
             radiance,
             original: original.as_ref().map(|(img, _)| img.clone()),
@@ -82,9 +92,24 @@ impl SceneReferences {
         };
         let radiance = Run::new("radiance", Role::Reference, 2, (0.0, n4), None);
         let wfic = Run::new("wfic", Role::Reference, 2, (0.0, n4), Some(&s));
+        let radiance_c = Run::new("radiance", Role::Converged, 2, (0.0, n4), None);
+        let wfic_c = Run::new(
+            "wfic",
+            Role::Converged,
+            2,
+            (0.0, n4),
+            Some(&converged_settings),
+        );
         runs.extend([
             refs.measured(radiance, &refs.radiance, 0, radiance_seconds),
             refs.measured(wfic, &refs.wfic_own[0], 0, wfic_seconds),
+            refs.measured(
+                radiance_c,
+                &refs.radiance_converged,
+                0,
+                radiance_converged_seconds,
+            ),
+            refs.measured(wfic_c, &refs.converged, 0, converged_seconds),
         ]);
         if let (Some(img), Some((_, seconds))) = (&refs.original, &original) {
             let row = Run::new(ORIGINAL, Role::Reference, 2, (0.0, n4), None);
@@ -102,10 +127,20 @@ impl SceneReferences {
             _ => &self.wfic_own[repeat],
         };
         let cache_error = image_error(img, own, &self.mask);
+        let own_converged = match run.renderer {
+            "radiance" => Some(&self.radiance_converged),
+            ORIGINAL => None,
+            _ => Some(&self.converged),
+        };
+        let nan = ImageError {
+            rel_rmse: f64::NAN,
+            mean_rel: f64::NAN,
+        };
         Run {
             seconds,
             cache_error,
             image_error: image_error(img, &self.converged, &self.mask),
+            own_image_error: own_converged.map_or(nan, |c| image_error(img, c, &self.mask)),
             cache_error_range: (cache_error.rel_rmse, cache_error.rel_rmse),
             ..run
         }
@@ -331,4 +366,71 @@ pub(super) fn picks(
         }
     }
     Ok(setting)
+}
+
+/// wfic's settings of the measured row `run`.
+fn settings_of(config: &RadianceConfig, run: &Run) -> RenderSettings {
+    let mut s = config.settings(run.accuracy, run.rays, run.light_samples, seed_of(0));
+    s.min_radius_pixels = run.min_radius_pixels;
+    s.smoothing = run.smoothing;
+    s
+}
+
+/// The cheapest measured wfic setting (its rows at 2 threads: the matched one, the sweep's over
+/// the cache's settings, the light study's over the light samples) whose image error against
+/// wfic's converged image is at or below `target`, and `true`; when none is, the one of least
+/// image error, and `false`.
+pub(super) fn image_candidate(runs: &[Run], target: f64) -> Option<(bool, &Run)> {
+    let candidates = || {
+        runs.iter().filter(|r| {
+            r.renderer == "wfic"
+                && r.workers == 2
+                && matches!(r.role, Role::Matched | Role::Sweep | Role::LightSamples)
+        })
+    };
+    let reached = candidates()
+        .filter(|r| r.own_image_error.rel_rmse <= target)
+        .min_by(|a, b| a.seconds.total_cmp(&b.seconds));
+    match reached {
+        Some(r) => Some((true, r)),
+        None => candidates()
+            .min_by(|a, b| {
+                let e = |r: &Run| r.own_image_error.rel_rmse;
+                e(a).total_cmp(&e(b))
+            })
+            .map(|r| (false, r)),
+    }
+}
+
+/// Time at equal image error: for 1 and 2 workers, [`image_candidate`] against Radiance's image
+/// error (against its own converged image) at that count, rendered again at that count (its
+/// repeats as every row's), into `runs`.
+pub(super) fn image_picks(
+    config: &RadianceConfig,
+    scene: &Scene,
+    refs: &SceneReferences,
+    runs: &mut Vec<Run>,
+) -> Result<(), String> {
+    for workers in [1, 2] {
+        let Some(rad) = super::find(runs, "radiance", Role::Matched, workers) else {
+            continue;
+        };
+        let target = rad.own_image_error.rel_rmse;
+        let Some((reached, run)) = image_candidate(runs, target) else {
+            continue;
+        };
+        let s = settings_of(config, run);
+        let role = Role::ImagePick { reached, workers };
+        let (row, _) = refs.wfic(scene, role, &s, workers)?;
+        say!(
+            scene.name(),
+            "{}: {:.3} s, image error {:.2}% (radiance {:.2}%)",
+            role.name(),
+            row.seconds,
+            100.0 * row.own_image_error.rel_rmse,
+            100.0 * target
+        );
+        runs.push(row);
+    }
+    Ok(())
 }
