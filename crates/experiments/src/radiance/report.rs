@@ -81,8 +81,12 @@ fn secs(seconds: f64) -> String {
     format!("{seconds:.3}")
 }
 
-/// An error as `rel. RMSE (mean rel.)`.
+/// An error as `rel. RMSE (mean rel.)`; `n/a` where there is none (NaN: no image to measure
+/// against).
 fn both(e: &ImageError) -> String {
+    if e.rel_rmse.is_nan() {
+        return "n/a".to_owned();
+    }
     format!("{} ({})", pct(e.rel_rmse), pct(e.mean_rel))
 }
 
