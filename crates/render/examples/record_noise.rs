@@ -73,16 +73,7 @@ mod app {
             let start = Instant::now();
             for k in 0..estimates {
                 let mut rng = Rng::new(0x5eed ^ (u64::from(k) << 20) ^ u64::from(tries));
-                let s = sample_irradiance(
-                    &scene,
-                    x,
-                    n,
-                    strata,
-                    eps,
-                    Default::default(),
-                    &mut rng,
-                    &mut rays_counted,
-                );
+                let s = sample_irradiance(&scene, x, n, strata, eps, &mut rng, &mut rays_counted);
                 lum.push(f64::from(luminance(s.irradiance)));
             }
             seconds += start.elapsed().as_secs_f64();

@@ -346,19 +346,22 @@ fn sin_cos_small(x: f32) -> (f32, f32) {
 }
 
 /// Ward's stratified hemisphere estimate at `x` with unit facing normal `n` (see the module doc).
-#[allow(clippy::too_many_arguments)]
+///
+/// The light sample at each hemisphere hit is the earlier estimator's,
+/// [`DirectSampling::PowerOverDistance`], whatever the frame's `direct` setting: the records are
+/// what the cache experiments measure, and they stay the records every committed cache result
+/// was measured on (`docs/tried-and-dropped.md` has the light-bounds estimator tried there).
 pub fn sample_irradiance(
     scene: &Scene,
     x: Vec3,
     n: Vec3,
     strata: Strata,
     eps: f32,
-    sampling: DirectSampling,
     rng: &mut Rng,
     rays: &mut RayCounts,
 ) -> IrradianceSample {
     let hemisphere = Hemisphere::new(n, strata);
-    let cells = hemisphere.sample(scene, x, eps, sampling, rng, rays);
+    let cells = hemisphere.sample(scene, x, eps, rng, rays);
     let count = (hemisphere.m * hemisphere.nn) as f32;
     let irradiance = cells.radiance.iter().copied().sum::<Vec3>() * (PI / count);
     let harmonic_mean = if cells.inv_dist_sum > 0.0 {
@@ -429,7 +432,6 @@ impl Hemisphere {
         scene: &Scene,
         x: Vec3,
         eps: f32,
-        sampling: DirectSampling,
         rng: &mut Rng,
         rays: &mut RayCounts,
     ) -> Cells {
@@ -485,7 +487,8 @@ impl Hemisphere {
                         (b as f32 + rng.next_f32()) * inv_nn,
                     ];
                     let oy = y + ny * eps;
-                    scene.light_choice_into_at_hit(oy, ny, sampling, &mut lights);
+                    let sampling = DirectSampling::PowerOverDistance;
+                    scene.light_choice_into(oy, ny, sampling, &mut lights);
                     // Next to an emitter sampled by area one sample's `1 / d^2` varies by more
                     // than 4x over it: take NEAR_HIT_SAMPLES there.
                     let ed = if lights.near() {
@@ -725,7 +728,6 @@ impl PixelIntegrator<'_> {
             n,
             self.strata,
             self.eps,
-            self.settings.direct,
             &mut rng,
             &mut counters.rays,
         );
@@ -878,7 +880,6 @@ mod tests {
                 n,
                 Strata::for_rays(1024),
                 1e-4,
-                DirectSampling::Bounds,
                 &mut rng,
                 &mut rays,
             );
@@ -1324,7 +1325,6 @@ mod tests {
             -Vec3::Y,
             Strata::for_rays(1024),
             1e-4,
-            DirectSampling::Bounds,
             &mut rng,
             &mut rays,
         );

@@ -44,10 +44,6 @@ use std::collections::HashMap;
 /// Most emitters weighed per shading point; more fall back to choice by power.
 pub const MAX_WEIGHED: usize = 64;
 
-/// Most emitters a scene may have for the light sample at a record's hemisphere hits to weigh
-/// them by importance ([`Lights::choice_into_at_hit`]).
-pub const IMPORTANCE_AT_HITS_MAX: usize = 4;
-
 /// Most triangles of an emitter sampled by solid angle where it is near (module doc).
 pub const SOLID_ANGLE_MAX: usize = 8;
 
@@ -691,25 +687,6 @@ impl Lights {
         choice: &mut LightChoice,
     ) {
         self.weigh_into(x, n, sampling, sampling == DirectSampling::Bounds, choice);
-    }
-
-    /// [`Lights::choice_into`] for the one light sample at a hemisphere hit of a record: under
-    /// [`DirectSampling::Bounds`] the emitters are weighed by importance only when there are at
-    /// most [`IMPORTANCE_AT_HITS_MAX`] of them, else by power over distance (how a chosen
-    /// emitter is sampled, its cone included, stays `sampling`'s). A record averages hundreds of
-    /// hits, which averages the choice's noise too, while the importance's cost grows with the
-    /// emitters at every hit: `results/direct` measured the conference room's twelve troffers
-    /// both ways.
-    pub fn choice_into_at_hit(
-        &self,
-        x: Vec3,
-        n: Vec3,
-        sampling: DirectSampling,
-        choice: &mut LightChoice,
-    ) {
-        let by_importance =
-            sampling == DirectSampling::Bounds && self.emitters.len() <= IMPORTANCE_AT_HITS_MAX;
-        self.weigh_into(x, n, sampling, by_importance, choice);
     }
 
     fn weigh_into(

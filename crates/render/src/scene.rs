@@ -483,18 +483,6 @@ impl Scene {
         self.lights.choice_into(x, n, sampling, choice)
     }
 
-    /// [`Scene::light_choice_into`] for a record's hemisphere hit ([`Lights::choice_into_at_hit`]).
-    #[inline]
-    pub fn light_choice_into_at_hit(
-        &self,
-        x: Vec3,
-        n: Vec3,
-        sampling: DirectSampling,
-        choice: &mut LightChoice,
-    ) {
-        self.lights.choice_into_at_hit(x, n, sampling, choice)
-    }
-
     /// The light sample for the uniform numbers `u` in `[0, 1)^3` under `choice`
     /// ([`Lights::sample`]); `None` when no emitter can light the point.
     #[inline]
