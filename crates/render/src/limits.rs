@@ -176,8 +176,9 @@ pub const SEED: Limit<u64> = Limit::closed("seed", "--seed", 0, u64::MAX);
 /// Records a rank gathers before an exchange round (its send buffer holds as many).
 pub const BATCH_RECORDS: Limit<usize> =
     Limit::closed("batch_records", "--batch-records", 1, 1 << 20);
-/// Milliseconds between a rank's exchange rounds at most.
-pub const BATCH_MS: Limit<u64> = Limit::closed("batch_ms", "--batch-ms", 0, 60_000);
+/// Milliseconds between a rank's exchange rounds at most, up to an hour (`reproduce
+/// distributed`'s batch sweep sets ten minutes, a timer that never fires in a frame).
+pub const BATCH_MS: Limit<u64> = Limit::closed("batch_ms", "--batch-ms", 0, 3_600_000);
 
 /// Bytes a frame of `width x height` holds at its peak, whatever the scheme: the linear image
 /// and the workers' tile results (a colour each, 12 bytes a pixel apiece), then the tone-mapped
