@@ -292,7 +292,7 @@ run_scope() {
             # renders real images.
             local f=(--workspace -f crates/render/src/parallel.rs -f crates/render/src/work.rs)
             stage "$scope" yes "${f[@]}" --test-package wfic-render --cargo-arg=--release --cargo-arg=--lib
-            stage "$scope" no "${f[@]}" --test-package wfic-experiments --cargo-arg=--release \
+            stage "$scope" no "${f[@]}" --test-workspace true --cargo-arg=--release \
                 -- --test render
             ;;
         bounds)
@@ -305,16 +305,19 @@ run_scope() {
             # command line's property test, which runs every option at its edges.
             local f=(--workspace -f crates/render/src/limits.rs -f crates/render/src/settings.rs)
             stage "$scope" yes "${f[@]}" --test-package wfic-render --cargo-arg=--lib
-            # The test target is named after `--` (the test run only): the build also covers
-            # the mutated package, which has no such target.
-            stage "$scope" no "${f[@]}" --test-package wfic-experiments -- --test command_line
+            # The test target is named after `--` (the test run only). `--test-workspace true`
+            # rather than `--test-package wfic-experiments`: cargo-mutants 27.1.0 ran the mutated
+            # package's own tests with the latter ("no test target named `command_line` in
+            # `wfic-render`"); `cargo test --workspace --test NAME` finds the target in the
+            # package that has it.
+            stage "$scope" no "${f[@]}" --test-workspace true -- --test command_line
             ;;
         render-distributed)
             # The MPI exchange: its unit tests, then the suite that runs `mpirun -np 2` and 3 and
             # compares the images and the records sent, received and inserted.
             local f=(--workspace -f crates/render/src/distributed.rs --features mpi)
             stage "$scope" yes "${f[@]}" --test-package wfic-render --cargo-arg=--release --cargo-arg=--lib
-            stage "$scope" no "${f[@]}" --test-package wfic-experiments --cargo-arg=--release \
+            stage "$scope" no "${f[@]}" --test-workspace true --cargo-arg=--release \
                 -- --test mpi
             ;;
         *)
