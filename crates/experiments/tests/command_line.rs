@@ -290,3 +290,45 @@ proptest! {
         let _ = check(path, id, bound, &value, &dir);
     }
 }
+
+/// The scene reader's regression corpus (`crates/render/tests/obj-corpus`, the inputs that broke
+/// or stretched it, fuzzing's included: docs/verification.md): each file's first line says what
+/// `wfic render --obj` must do with it, `# expect: CODE | NEEDLE | ...`, and standard error must
+/// hold every needle (an error's file and line, its reason; a warning's).
+#[test]
+fn the_scene_corpus_renders_or_is_refused_as_each_file_says() {
+    let dir = temp_dir();
+    let corpus = Path::new(env!("CARGO_MANIFEST_DIR")).join("../render/tests/obj-corpus");
+    let mut files: Vec<PathBuf> = std::fs::read_dir(&corpus)
+        .expect("the corpus")
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "obj"))
+        .collect();
+    files.sort();
+    assert!(files.len() >= 8, "the corpus: {files:?}");
+    for file in files {
+        let text = std::fs::read(&file).unwrap();
+        let first = String::from_utf8_lossy(text.split(|&b| b == b'\n').next().unwrap());
+        let expect = first.strip_prefix("# expect: ").expect("an expectation");
+        let mut parts = expect.split(" | ");
+        let code: i32 = parts.next().unwrap().trim().parse().unwrap();
+        let mut args: Vec<String> = ["render", "--obj"].map(String::from).to_vec();
+        args.push(file.to_string_lossy().into_owned());
+        for (k, v) in [
+            ("width", "4"),
+            ("height", "4"),
+            ("rays-per-record", "16"),
+            ("light-samples", "1"),
+            ("accuracy", "0.5"),
+        ] {
+            args.push(format!("--{k}={v}"));
+        }
+        args.push(format!("--out={}/corpus.png", dir.display()));
+        let (got, err) = run(&args);
+        let name = file.file_name().unwrap().to_string_lossy();
+        assert_eq!(got, Some(code), "{name}: {err}");
+        for needle in parts {
+            assert!(err.contains(needle), "{name}: `{needle}` not in: {err}");
+        }
+    }
+}

@@ -16,7 +16,7 @@ use super::colour::srgb_to_linear;
 use super::scene::{Material, MaterialId, Scene, SceneBuilder, SceneError};
 use glam::Vec3;
 use std::borrow::Cow;
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 use std::fmt;
 use std::path::{Path, PathBuf};
 
@@ -103,10 +103,12 @@ fn read(file: &Path, files: &dyn FileResolver) -> Result<String, ObjError> {
         bytes.into_owned()
     };
     String::from_utf8(bytes).map_err(|e| {
+        let at = e.utf8_error().valid_up_to();
+        let line = 1 + e.as_bytes()[..at].iter().filter(|&&b| b == b'\n').count();
         err(
             file,
-            None,
-            format!("not UTF-8 text (byte {})", e.utf8_error().valid_up_to()),
+            Some(line),
+            format!("not UTF-8 text (byte {at} of the file)"),
         )
     })
 }
@@ -378,23 +380,48 @@ fn texture_mean(path: &Path, bytes: &[u8]) -> Result<Vec3, String> {
     if let Ok(format) = image::ImageFormat::from_path(path) {
         reader.set_format(format);
     }
-    let image = reader
+    let mut reader = reader
         .with_guessed_format()
-        .map_err(|e| format!("cannot be read: {e}"))?
+        .map_err(|e| format!("cannot be read: {e}"))?;
+    reader.limits(texture_limits());
+    let image = reader
         .decode()
-        .map_err(|e| format!("cannot be decoded: {e}"))?
-        .into_rgb32f();
+        .map_err(|e| format!("cannot be decoded: {e}"))?;
     let n = f64::from(image.width()) * f64::from(image.height());
     if n == 0.0 {
         return Err("has no pixels".to_owned());
     }
     let mut sum = [0.0f64; 3];
-    for p in image.pixels() {
-        for (s, &c) in sum.iter_mut().zip(&p.0) {
+    let mut add = |rgb: [f32; 3]| {
+        for (s, c) in sum.iter_mut().zip(rgb) {
             *s += f64::from(srgb_to_linear(c));
         }
+    };
+    // Averaged at the image's own depth: an 8-bit texture is never widened to 12 bytes a pixel.
+    if image.color().bytes_per_pixel() / image.color().channel_count() == 1 {
+        image
+            .into_rgb8()
+            .pixels()
+            .for_each(|p| add(p.0.map(|c| f32::from(c) / 255.0)));
+    } else {
+        image.into_rgb32f().pixels().for_each(|p| add(p.0));
     }
     Ok(Vec3::from_array(sum.map(|s| (s / n) as f32)))
+}
+
+/// The largest texture side the reader decodes.
+pub const MAX_TEXTURE_SIDE: u32 = 16_384;
+
+/// The most a texture's decoding may allocate (the `image` crate's own accounting); with the
+/// side bound, what keeps a small file that claims a huge image from taking the memory.
+pub const MAX_TEXTURE_BYTES: u64 = 256 << 20;
+
+fn texture_limits() -> image::Limits {
+    let mut limits = image::Limits::default();
+    limits.max_image_width = Some(MAX_TEXTURE_SIDE);
+    limits.max_image_height = Some(MAX_TEXTURE_SIDE);
+    limits.max_alloc = Some(MAX_TEXTURE_BYTES);
+    limits
 }
 
 /// The material an MTL file is defining, until the next `newmtl`.
@@ -573,6 +600,32 @@ fn corner(word: &str, count: usize, file: &Path, line: usize) -> Result<usize, O
     Ok(at as usize)
 }
 
+/// The triangles of a convex polygon of `n` corners, as corner triples in the polygon's
+/// winding: the polygon is halved along a diagonal, and each half in turn, so most triangles are
+/// small and near the boundary. A fan from one corner gives the same triangles for a triangle or
+/// a quad, but for a polygon of many corners it gives long slivers that all share a corner, on
+/// which the BVH builder's time grows with the square of their number
+/// (docs/tried-and-dropped.md, "Fanned polygons").
+fn triangulate(n: usize) -> Vec<[usize; 3]> {
+    let mut out = Vec::with_capacity(n.saturating_sub(2));
+    // Each range of corners `a..=b` is closed by the diagonal `a b`: its triangle takes the
+    // middle corner, rounded up, and leaves the two ranges either side (left first, so a quad
+    // gives the fan's (0 1 2), (0 2 3) in that order).
+    // The stack holds ranges to split and triangles to emit once the range left of them is done.
+    let mut stack = vec![Err((0, n.saturating_sub(1)))];
+    while let Some(item) = stack.pop() {
+        match item {
+            Ok(triangle) => out.push(triangle),
+            Err((a, b)) if b >= a + 2 => {
+                let m = (a + b).div_ceil(2);
+                stack.extend([Err((m, b)), Ok([a, m, b]), Err((a, m))]);
+            }
+            Err(_) => {}
+        }
+    }
+    out
+}
+
 /// Reads an OBJ file (and the MTL files it names, relative to it) into a scene builder, adding
 /// the warnings of both to `warnings`.
 fn read_obj(
@@ -588,6 +641,7 @@ fn read_obj(
     let mut ids: HashMap<String, MaterialId> = HashMap::new();
     let mut current = default;
     let mut positions: Vec<Vec3> = Vec::new();
+    let mut libraries: HashSet<PathBuf> = HashSet::new();
     let mut skipped = Skipped::new(file);
     for (i, raw) in text.lines().enumerate() {
         let line = i + 1;
@@ -610,11 +664,11 @@ fn read_obj(
                         format!("a face needs at least 3 vertices, found {}", corners.len()),
                     ));
                 }
-                for k in 1..corners.len() - 1 {
+                for [i, j, k] in triangulate(corners.len()) {
                     b.triangle(
-                        positions[corners[0]],
+                        positions[corners[i]],
+                        positions[corners[j]],
                         positions[corners[k]],
-                        positions[corners[k + 1]],
                         current,
                     );
                 }
@@ -625,6 +679,11 @@ fn read_obj(
                     return Err(err(file, Some(line), "`mtllib` without a file name"));
                 }
                 for name in names {
+                    // A library named again defines the same materials again: it is read once,
+                    // so a file that names one library on every line still loads in linear time.
+                    if !libraries.insert(dir.join(name)) {
+                        continue;
+                    }
                     read_mtl(&dir.join(name), files, &mut library, warnings).map_err(|mut e| {
                         e.message = format!("{} (named by {}:{line})", e.message, file.display());
                         e
@@ -665,6 +724,11 @@ fn read_obj(
     Ok(b)
 }
 
+/// The largest coordinate magnitude the loader accepts: far below where single precision's
+/// products of two coordinate differences (the triangles' normals and areas) overflow, near
+/// 1.8e19 a coordinate.
+pub const MAX_COORDINATE: f32 = 1e15;
+
 /// Prints warnings to standard error, one a line.
 fn print(warnings: &[ObjWarning]) {
     for w in warnings {
@@ -701,10 +765,31 @@ pub fn load(file: &Path) -> Result<Scene, ObjError> {
 /// [`load`], returning the warnings (skipped statements, unusable textures) rather than printing
 /// them, in the order met: an MTL file's at its `mtllib` line, the OBJ file's own at the end.
 pub fn load_with_warnings(file: &Path) -> Result<(Scene, Vec<ObjWarning>), ObjError> {
+    load_from(file, &FileSystem)
+}
+
+/// [`load_with_warnings`], reading the OBJ file and the files it names from `files`.
+pub fn load_from(
+    file: &Path,
+    files: &dyn FileResolver,
+) -> Result<(Scene, Vec<ObjWarning>), ObjError> {
     let mut warnings = Vec::new();
-    let mut b = read_obj(file, &FileSystem, &mut warnings)?;
+    let mut b = read_obj(file, files, &mut warnings)?;
     let (lo, hi) = b.bounds();
     let size = hi - lo;
+    // The camera, the light panel and every ray offset are made from the extent, the normals
+    // from products of coordinates: beyond the bound they become infinite or NaN.
+    let reach = lo.abs().max(hi.abs()).max_element();
+    if reach > MAX_COORDINATE {
+        return Err(err(
+            file,
+            None,
+            format!(
+                "the model spans {lo} to {hi}: a coordinate beyond ±{MAX_COORDINATE:e} is too \
+                 large for single-precision rendering (scale or move the model)"
+            ),
+        ));
+    }
     let centre = (lo + hi) * 0.5;
     if !b.has_lights() {
         let m = b.material(Material::light(Vec3::splat(10.0)));
@@ -1058,6 +1143,102 @@ mod tests {
             "b.tga"
         );
         assert_eq!(name("-unknown c.png"), "-unknown c.png");
+    }
+
+    /// Files in memory that count how often each is read.
+    #[derive(Default)]
+    struct Counted {
+        files: HashMap<PathBuf, Vec<u8>>,
+        reads: std::cell::RefCell<HashMap<PathBuf, usize>>,
+    }
+
+    impl FileResolver for Counted {
+        fn read(&self, path: &Path) -> std::io::Result<Cow<'static, [u8]>> {
+            *self.reads.borrow_mut().entry(path.to_owned()).or_default() += 1;
+            self.files
+                .get(path)
+                .cloned()
+                .map(Cow::Owned)
+                .ok_or_else(|| std::io::ErrorKind::NotFound.into())
+        }
+    }
+
+    #[test]
+    fn a_library_named_on_every_line_is_read_once() {
+        let mut obj = String::new();
+        for _ in 0..1000 {
+            obj += "mtllib m.mtl n.mtl\n";
+        }
+        obj += "usemtl light\nv 0 0 0\nv 1 0 0\nv 0 0 1\nf 1 2 3\n";
+        let mut files = Counted::default();
+        files.files.insert("d/s.obj".into(), obj.into_bytes());
+        files.files.insert(
+            "d/m.mtl".into(),
+            b"newmtl light\nKe 1 1 1\nKs 1 1 1\n".to_vec(),
+        );
+        files
+            .files
+            .insert("d/n.mtl".into(), b"newmtl grey\nKd 0.5 0.5 0.5\n".to_vec());
+        let mut warnings = Vec::new();
+        let b = read_obj(Path::new("d/s.obj"), &files, &mut warnings).unwrap();
+        assert!(b.has_lights());
+        let reads = files.reads.borrow();
+        assert_eq!(reads[Path::new("d/m.mtl")], 1, "{reads:?}");
+        assert_eq!(reads[Path::new("d/n.mtl")], 1, "{reads:?}");
+        // Its warnings once too: the one `Ks` line.
+        assert_eq!(warnings.len(), 1, "{warnings:?}");
+    }
+
+    #[test]
+    fn text_that_is_not_utf8_names_its_line() {
+        let mut files = Counted::default();
+        files
+            .files
+            .insert("d/s.obj".into(), b"v 0 0 0\nv 1 0 0\n# caf\xe9\n".to_vec());
+        let e = read_obj(Path::new("d/s.obj"), &files, &mut Vec::new())
+            .map(|_| ())
+            .unwrap_err();
+        assert_eq!(e.line, Some(3), "{e}");
+        assert!(e.to_string().contains("not UTF-8"), "{e}");
+    }
+
+    #[test]
+    fn polygons_are_halved_into_triangles_that_cover_them_once() {
+        assert_eq!(triangulate(3), [[0, 1, 2]]);
+        // A quad: the fan's two triangles, in the fan's order.
+        assert_eq!(triangulate(4), [[0, 1, 2], [0, 2, 3]]);
+        for n in [5, 6, 7, 64, 1000, 100_001] {
+            let tris = triangulate(n);
+            assert_eq!(tris.len(), n - 2, "{n} corners");
+            // The triangles of a regular n-gon are in its winding (positive area) and their
+            // areas add up to the polygon's: they cover it once.
+            let corner = |k: usize| {
+                let t = std::f64::consts::TAU * k as f64 / n as f64;
+                (t.cos(), t.sin())
+            };
+            let mut sum = 0.0;
+            for &[i, j, k] in &tris {
+                assert!(i < j && j < k && k < n, "{n}: {i} {j} {k}");
+                let ((ax, ay), (bx, by), (cx, cy)) = (corner(i), corner(j), corner(k));
+                let area = 0.5 * ((bx - ax) * (cy - ay) - (cx - ax) * (by - ay));
+                assert!(area > 0.0, "{n}: {i} {j} {k}");
+                sum += area;
+            }
+            let polygon = 0.5 * n as f64 * (std::f64::consts::TAU / n as f64).sin();
+            assert!(
+                (sum - polygon).abs() < 1e-9 * polygon.max(1.0),
+                "{n}: {sum} {polygon}"
+            );
+            // Halving keeps most triangles small: no corner is in more than ~2 log2 n of them
+            // (a fan puts corner 0 in all of them).
+            let mut uses = vec![0usize; n];
+            tris.iter().flatten().for_each(|&c| uses[c] += 1);
+            let most = *uses.iter().max().unwrap();
+            assert!(
+                most <= 2 * (n as f64).log2().ceil() as usize + 2,
+                "{n}: {most}"
+            );
+        }
     }
 
     #[test]
