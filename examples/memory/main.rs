@@ -281,14 +281,34 @@ fn page(results: &[Size], quick: bool) -> String {
     .unwrap();
     writeln!(
         p,
-        "Each scheme's cache is built empty and filled with N records of the benches' scene-like          workload (`benches/common`: the room with three boxes, accuracy 0.25, radii 0.05 to          0.5; `scene_records(N, {SEED:#x})`), inserted by one handle in one frame on one thread.          **Bytes** are the counting allocator's live total (as requested) after the frame closed,          minus the total before the cache was built: the cache's heap alone. **Blocks**: live          allocations. **glibc est.**: what glibc's malloc would hold for those blocks (size plus          its 8-byte header, rounded to 16; large mappings not modelled). The **ratio** is bytes          per record over one record and its key, `size_of::<Record>() + size_of::<Key>()` = {} +          {} = {RECORD_AND_KEY} bytes: the key is the per-slot `Key` (position, normal, squared          reach) every scheme stores beside each record for the prefilter; WF keeps it with the          slot's state byte in a 32-byte hot half.\n",
+        "Each scheme's cache is built empty and filled with N records of the benches' scene-like \
+         workload (`benches/common`: the room with three boxes, accuracy 0.25, radii 0.05 to \
+         0.5; `scene_records(N, {SEED:#x})`), inserted by one handle in one frame on one thread. \
+         **Bytes** are the counting allocator's live total (as requested) after the frame closed, \
+         minus the total before the cache was built: the cache's heap alone. **Blocks**: live \
+         allocations. **glibc est.**: what glibc's malloc would hold for those blocks (size plus \
+         its 8-byte header, rounded to 16; large mappings not modelled). The **ratio** is bytes \
+         per record over one record and its key, `size_of::<Record>() + size_of::<Key>()` = {} + \
+         {} = {RECORD_AND_KEY} bytes: the key is the per-slot `Key` (position, normal, squared \
+         reach) every scheme stores beside each record for the prefilter; WF keeps it with the \
+         slot's state byte in a 32-byte hot half.\n",
         std::mem::size_of::<Record>(),
         std::mem::size_of::<Key>(),
     )
     .unwrap();
     writeln!(
         p,
-        "**The split** is by `size_of` x counts, not measured part by part: the counts are the          records' tree shape worked out from the public geometry (`verify/tree_shape.rs`),          checked against each cache's `stats()` (records and nodes equal); the sizes are the          documented layouts (WF node {WF_NODE} B, WF slot {WF_HOT} + {} B, segments of 4, 8, 16,          ... slots, a {WF_DIRECTORY}-byte directory once a list outgrows its first segment; the          arena octree's node {ARENA_NODE} B and `Vec`s doubling from 4). *records* and *keys*          are N x {} and N x {}; *slot extra* WF's state byte and padding; *spare* capacity          allocated and unused (WF: unreserved slots of allocated segments; arena: `Vec` capacity          beyond length); *nodes* the nodes beyond the root; *index* WF's directory pointers and          directories; *fixed* the same cache after a frame with no insert. *unattr.* is the          measured total minus the split's sum: zero means the split accounts for every byte.\n",
+        "**The split** is by `size_of` x counts, not measured part by part: the counts are the \
+         records' tree shape worked out from the public geometry (`verify/tree_shape.rs`), \
+         checked against each cache's `stats()` (records and nodes equal); the sizes are the \
+         documented layouts (WF node {WF_NODE} B, WF slot {WF_HOT} + {} B, segments of 4, 8, 16, \
+         ... slots, a {WF_DIRECTORY}-byte directory once a list outgrows its first segment; the \
+         arena octree's node {ARENA_NODE} B and `Vec`s doubling from 4). *records* and *keys* \
+         are N x {} and N x {}; *slot extra* WF's state byte and padding; *spare* capacity \
+         allocated and unused (WF: unreserved slots of allocated segments; arena: `Vec` capacity \
+         beyond length); *nodes* the nodes beyond the root; *index* WF's directory pointers and \
+         directories; *fixed* the same cache after a frame with no insert. *unattr.* is the \
+         measured total minus the split's sum: zero means the split accounts for every byte.\n",
         std::mem::size_of::<Record>(),
         std::mem::size_of::<Record>(),
         std::mem::size_of::<Key>(),
@@ -296,7 +316,9 @@ fn page(results: &[Size], quick: bool) -> String {
     .unwrap();
     writeln!(
         p,
-        "LCK and LCK-RW hold TRA's octree behind a lock, and LW's global octree is TRA's after          the merge (the local one is emptied), so their bytes are TRA's. WF-D differs from WF          only in what a lost child race does; one thread loses none, so its tree is WF's.\n"
+        "LCK and LCK-RW hold TRA's octree behind a lock, and LW's global octree is TRA's after \
+         the merge (the local one is emptied), so their bytes are TRA's. WF-D differs from WF \
+         only in what a lost child race does; one thread loses none, so its tree is WF's.\n"
     )
     .unwrap();
     for size in results {
@@ -377,13 +399,33 @@ fn radiance_section(p: &mut String) {
     writeln!(p, "## Radiance's ambient record\n").unwrap();
     writeln!(
         p,
-        "`AMBVAL` (`struct ambrec` in `src/rt/ambient.h` of LBNL-ETA/Radiance, commit bcffc2b5)          mirrored field for field as a `repr(C)` struct (`examples/memory/measure.rs`): a next          pointer, `float pos[3]`, `int32 ndir, udir`, `short lvl` (then 2 bytes of padding),          `float weight`, `float rad[2], gpos[2], gdir[2]`, `uint32 corral`, and `SCOLOR val`          last. `SCOLOR` is `float[MAXCSAMP]` with `MAXCSAMP` = {RADIANCE_MAXCSAMP} in that tree          (`src/common/color.h`), so `sizeof(AMBVAL)` = **{RADIANCE_AMBVAL} bytes** on x86-64.          Radiance never allocates that much: `newambval()` mallocs `AVSIZE` = `sizeof(AMBVAL) -          sizeof(SCOLOR) + sizeof(COLORV) * NCSAMP` (`src/rt/ambient.c`), and `NCSAMP` is 3 by          default (`CNDX[3]` in `src/common/color.c`): **{RADIANCE_AVSIZE} bytes** per record,          one malloc each ({} bytes as a glibc chunk). The record carries its own list link          (`next`), so a node's list costs nothing beyond it.\n",
+        "`AMBVAL` (`struct ambrec` in `src/rt/ambient.h` of LBNL-ETA/Radiance, commit bcffc2b5) \
+         mirrored field for field as a `repr(C)` struct (`examples/memory/measure.rs`): a next \
+         pointer, `float pos[3]`, `int32 ndir, udir`, `short lvl` (then 2 bytes of padding), \
+         `float weight`, `float rad[2], gpos[2], gdir[2]`, `uint32 corral`, and `SCOLOR val` \
+         last. `SCOLOR` is `float[MAXCSAMP]` with `MAXCSAMP` = {RADIANCE_MAXCSAMP} in that tree \
+         (`src/common/color.h`), so `sizeof(AMBVAL)` = **{RADIANCE_AMBVAL} bytes** on x86-64. \
+         Radiance never allocates that much: `newambval()` mallocs `AVSIZE` = `sizeof(AMBVAL) - \
+         sizeof(SCOLOR) + sizeof(COLORV) * NCSAMP` (`src/rt/ambient.c`), and `NCSAMP` is 3 by \
+         default (`CNDX[3]` in `src/common/color.c`): **{RADIANCE_AVSIZE} bytes** per record, \
+         one malloc each ({} bytes as a glibc chunk). The record carries its own list link \
+         (`next`), so a node's list costs nothing beyond it.\n",
         glibc_chunk(RADIANCE_AVSIZE)
     )
     .unwrap();
     writeln!(
         p,
-        "Its octree, `AMBTREE`, is a record-list head and a pointer to eight children that are          allocated together ({RADIANCE_KIDS} bytes, zeroed, the first time `avinsert` descends          through a node), taken from pool blocks of 512 such groups (64 KiB) that are never          returned to malloc; the trunk is a static. What is known: those sizes, and the rule          `avinsert` descends by (while `s * OCTSCALE / 2 > rad[1] * ambacc`, `OCTSCALE` = 1,          `s` the node's cube size). What is assumed for the *Radiance (model)* rows: that          `rad[1] * ambacc` is this workload's `a R` and that the scene cube is the cache's root          cube; the child groups are then counted by replaying that rule on the same records.          Radiance's record holds less than ours (no gradients per channel, no id or check, an          encoded normal), so the rows compare what each design spends around its record, not          like with like.\n"
+        "Its octree, `AMBTREE`, is a record-list head and a pointer to eight children that are \
+         allocated together ({RADIANCE_KIDS} bytes, zeroed, the first time `avinsert` descends \
+         through a node), taken from pool blocks of 512 such groups (64 KiB) that are never \
+         returned to malloc; the trunk is a static. What is known: those sizes, and the rule \
+         `avinsert` descends by (while `s * OCTSCALE / 2 > rad[1] * ambacc`, `OCTSCALE` = 1, \
+         `s` the node's cube size). What is assumed for the *Radiance (model)* rows: that \
+         `rad[1] * ambacc` is this workload's `a R` and that the scene cube is the cache's root \
+         cube; the child groups are then counted by replaying that rule on the same records. \
+         Radiance's record holds less than ours (no gradients per channel, no id or check, an \
+         encoded normal), so the rows compare what each design spends around its record, not \
+         like with like.\n"
     )
     .unwrap();
 }
@@ -464,7 +506,8 @@ fn verdict(p: &mut String, results: &[Size]) {
     writeln!(p, "## Verdict\n").unwrap();
     writeln!(
         p,
-        "Goal: WF at most {GOAL_RATIO}x the bytes of a record plus its key ({:.0} B) at 10^6          records. **{}**: WF holds {:.1} B/record at N = {}, {ratio:.3}x.",
+        "Goal: WF at most {GOAL_RATIO}x the bytes of a record plus its key ({:.0} B) at 10^6 \
+         records. **{}**: WF holds {:.1} B/record at N = {}, {ratio:.3}x.",
         GOAL_RATIO * RECORD_AND_KEY as f64,
         if last.n < 1_000_000 {
             "Not measured at 10^6 (quick run)"
