@@ -474,7 +474,10 @@ fn where_wf_bytes_go(p: &mut String, size: &Size) {
     writeln!(
         p,
         "\nThe same lists under other growth policies (spare recomputed, everything else as \
-         measured; a model, not a build):\n"
+         measured; a model, not a build). A policy whose segments stop doubling needs a \
+         directory that grows with the list (49 entries then no longer cover any address \
+         space), a pointer a segment; that, and the compaction's copying at each frame close, \
+         are not in these figures:\n"
     )
     .unwrap();
     writeln!(p, "| policy | spare B/record | total B/record | ratio |").unwrap();

@@ -479,13 +479,23 @@ fn capacity_fixed_eight(len: u64) -> u64 {
     }
 }
 
+/// Segments of 4, 8, 16, 32 slots, then 32 each: doubling capped at 32.
+fn capacity_capped_32(len: u64) -> u64 {
+    let (mut capacity, mut segment) = (0, WF_FIRST_SEGMENT);
+    while capacity < len {
+        capacity += segment;
+        segment = (segment * 2).min(32);
+    }
+    capacity
+}
+
 /// Every list that grew rebuilt at the frame's close into one block of exactly its length.
 fn capacity_exact(len: u64) -> u64 {
     len
 }
 
 /// The policies the page compares, the built one first.
-pub const POLICIES: [Policy; 4] = [
+pub const POLICIES: [Policy; 5] = [
     Policy {
         name: "as built: segments of 4, 8, 16, ... slots",
         capacity: wf_capacity,
@@ -493,6 +503,10 @@ pub const POLICIES: [Policy; 4] = [
     Policy {
         name: "segments of 4, 4, 8, 8, 16, 16, ... slots",
         capacity: capacity_each_size_twice,
+    },
+    Policy {
+        name: "segments of 4, 8, 16, 32 slots, then 32 each",
+        capacity: capacity_capped_32,
     },
     Policy {
         name: "a first segment of 4, then segments of 8",
