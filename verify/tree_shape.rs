@@ -91,6 +91,12 @@ impl TreeShape {
         self.nodes.len()
     }
 
+    /// The number of records placed in each node (in no particular order): the lengths of the
+    /// tree's lists.
+    pub fn list_lengths(&self) -> impl Iterator<Item = u64> + '_ {
+        self.nodes.values().map(|&(_, records)| records)
+    }
+
     /// The depth of the deepest node.
     pub fn depth(&self) -> usize {
         self.nodes.keys().map(Vec::len).max().unwrap_or(0)

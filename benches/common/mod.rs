@@ -206,7 +206,7 @@ pub struct Workload {
 
 impl Workload {
     fn build() -> Self {
-        let config = CacheConfig::new(Vec3::ZERO, Vec3::splat(5.0), ACCURACY).expect("config");
+        let config = scene_config();
         let scene = Scene::room();
         let mut rng = Rng::new(0x1c_2009);
 
@@ -311,6 +311,25 @@ impl Workload {
             valid as f64 / q,
         );
     }
+}
+
+/// `n` records of the workload's scene, as the pre-fill draws them (a surface point uniform by
+/// area, then its record) from a stream of their own seeded with `seed`: the fill for a cache of
+/// any size (`examples/memory`), all inside [`Workload::config`]'s bounds.
+pub fn scene_records(n: usize, seed: u64) -> Vec<Record> {
+    let scene = Scene::room();
+    let mut rng = Rng::new(seed);
+    (0..n)
+        .map(|_| {
+            let sp = scene.sample(&mut rng);
+            scene.record(sp, &mut rng)
+        })
+        .collect()
+}
+
+/// The cache configuration of the workload: the room's 5 m cube at accuracy [`ACCURACY`].
+pub fn scene_config() -> CacheConfig {
+    CacheConfig::new(Vec3::ZERO, Vec3::splat(5.0), ACCURACY).expect("config")
 }
 
 pub fn workload() -> &'static Workload {
