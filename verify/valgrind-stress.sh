@@ -62,4 +62,6 @@ failed=0
 # --test-threads=1: libtest runs the tests one after another (memcheck serialises threads anyway).
 memcheck stress --test-threads=1 || failed=1
 memcheck leaks || failed=1
+# Removal racing inserts and lookups: 10^6 operations a scheme, at 2 and at 8 workers.
+WFIC_REMOVAL_STRESS_OPS="${WFIC_REMOVAL_STRESS_OPS:-1000000}" memcheck removal_stress --test-threads=1 || failed=1
 exit "$failed"
