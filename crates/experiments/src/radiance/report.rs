@@ -216,20 +216,33 @@ pub fn image_goal(wf: &Run, rad: &Run) -> &'static str {
     }
 }
 
-/// The time at equal image error, each scene's worker counts: Radiance's matched row beside
-/// the count's image pick.
-fn equal_image_markdown(results: &[SceneComparison]) -> String {
+/// Each scene's rows at 1 and 2 workers: the scene, Radiance's matched run and wfic's run that
+/// `pick` chooses at that worker count, where both exist.
+fn beside_radiance<'a>(
+    results: &'a [SceneComparison],
+    pick: impl Fn(&'a SceneComparison, usize) -> Option<&'a Run>,
+) -> Vec<(&'a SceneComparison, &'a Run, &'a Run)> {
     let mut rows = Vec::new();
     for r in results {
         for workers in [1, 2] {
-            let wf = [true, false]
-                .into_iter()
-                .find_map(|reached| r.find("wfic", Role::ImagePick { reached, workers }, workers));
-            if let (Some(wf), Some(rad)) = (wf, r.find("radiance", Role::Matched, workers)) {
+            if let (Some(wf), Some(rad)) =
+                (pick(r, workers), r.find("radiance", Role::Matched, workers))
+            {
                 rows.push((r, rad, wf));
             }
         }
     }
+    rows
+}
+
+/// The time at equal image error, each scene's worker counts: Radiance's matched row beside
+/// the count's image pick.
+fn equal_image_markdown(results: &[SceneComparison]) -> String {
+    let rows = beside_radiance(results, |r, workers| {
+        [true, false]
+            .into_iter()
+            .find_map(|reached| r.find("wfic", Role::ImagePick { reached, workers }, workers))
+    });
     let t = Table::new()
         .md("scene", |(r, ..): &(&SceneComparison, &Run, &Run)| {
             r.scene.clone()
@@ -279,20 +292,13 @@ fn extra_records(r: &SceneComparison, role: Role) -> f64 {
 /// The time at equal error, each scene's worker counts: Radiance's matched row beside the
 /// count's pick at that count.
 fn equal_error_markdown(results: &[SceneComparison]) -> String {
-    let mut rows = Vec::new();
-    for r in results {
-        for workers in [1, 2] {
-            // This worker count's pick: one setting for both counts, or one each.
-            let own = [None, None, Some(workers), Some(workers)];
-            let wf = own
-                .into_iter()
-                .zip([true, false, true, false])
-                .find_map(|(w, ok)| r.find("wfic", Role::pick(ok, w), workers));
-            if let (Some(wf), Some(rad)) = (wf, r.find("radiance", Role::Matched, workers)) {
-                rows.push((r, rad, wf));
-            }
-        }
-    }
+    let rows = beside_radiance(results, |r, workers| {
+        // This worker count's pick: one setting for both counts, or one each.
+        let own = [None, None, Some(workers), Some(workers)];
+        own.into_iter()
+            .zip([true, false, true, false])
+            .find_map(|(w, ok)| r.find("wfic", Role::pick(ok, w), workers))
+    });
     let t = Table::new()
         .md("scene", |(r, ..): &(&SceneComparison, &Run, &Run)| {
             r.scene.clone()

@@ -166,6 +166,14 @@ fn ambient_records(bin: &RadianceBin, amb: &Path) -> Result<usize, String> {
         .count())
 }
 
+/// An octree one of [`Rtrace`]'s preparations built, and where its scene came from.
+struct Built {
+    oct: PathBuf,
+    oconv_seconds: f64,
+    export: Option<Export>,
+    original: Option<(PathBuf, String)>,
+}
+
 /// A scene exported for Radiance in a work folder: its octree, wfic's primary rays (every
 /// pixel's, and the reference grid's), and the `rtrace` runs made on them.
 pub struct Rtrace<'a> {
@@ -216,20 +224,39 @@ impl<'a> Rtrace<'a> {
         let mut oconv = bin.command("oconv");
         oconv.arg("-f").arg(&rad);
         let oconv_seconds = run_to_file(oconv, None, &oct, "oconv")?;
+        let built = Built {
+            oct,
+            oconv_seconds,
+            export: Some(export),
+            original: None,
+        };
+        Self::with_rays(bin, work, built, scene, settings, stride)
+    }
+
+    /// The comparison over the octree `built`, with the rays of `scene` and `settings` (every
+    /// pixel, and the grid of `stride`) written to `work`.
+    fn with_rays(
+        bin: &'a RadianceBin,
+        work: &Path,
+        built: Built,
+        scene: &Scene,
+        settings: &RenderSettings,
+        stride: u32,
+    ) -> Result<Self, String> {
         let (rays, grid_rays) = (work.join("rays.f32"), work.join("grid-rays.f32"));
         write_rays(scene, settings, 1, &rays)?;
         write_rays(scene, settings, stride, &grid_rays)?;
         Ok(Self {
             bin,
             work: work.to_owned(),
-            oct,
+            oct: built.oct,
             rays,
             grid_rays,
             size: (settings.width, settings.height),
             stride,
-            oconv_seconds,
-            export: Some(export),
-            original: None,
+            oconv_seconds: built.oconv_seconds,
+            export: built.export,
+            original: built.original,
         })
     }
 
@@ -297,21 +324,13 @@ impl<'a> Rtrace<'a> {
         if warnings.contains("bad status") || warnings.contains("empty file") {
             return Err(format!("oconv (original): {}", warnings.trim()));
         }
-        let (rays, grid_rays) = (work.join("rays.f32"), work.join("grid-rays.f32"));
-        write_rays(scene, settings, 1, &rays)?;
-        write_rays(scene, settings, stride, &grid_rays)?;
-        Ok(Self {
-            bin,
-            work: work.to_owned(),
+        let built = Built {
             oct,
-            rays,
-            grid_rays,
-            size: (settings.width, settings.height),
-            stride,
             oconv_seconds,
             export: None,
             original: Some((office, raypath)),
-        })
+        };
+        Self::with_rays(bin, work, built, scene, settings, stride)
     }
 
     /// `rtrace` as both comparisons run it: one bounce, no ambient value or weight,
