@@ -18,6 +18,7 @@ pub mod plot;
 pub mod radiance;
 pub mod render_cli;
 pub mod reproduce_cli;
+pub mod scaling;
 pub mod table1;
 
 pub use harness::{median, Machine};

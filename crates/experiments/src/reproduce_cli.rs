@@ -39,6 +39,23 @@ pub enum ReproduceCommand {
     /// The direct-light estimators side by side: variance x time at the primary hits, the
     /// seed-to-seed noise and frame time of default renders (direct.md, .csv, direct-crops.png).
     Direct(DirectArgs),
+    /// A frame's cost against the image side (128 to 4 096) and the accuracy, on the Cornell box
+    /// and Sponza: time a pixel, records, lookups, peak memory (scaling.md, .csv, .png, .svg).
+    Scaling(ScalingArgs),
+}
+
+/// Arguments of `wfic reproduce scaling`.
+#[derive(Clone, Debug, clap::Args)]
+pub struct ScalingArgs {
+    /// Sides 64 to 256 and three accuracies at 128: a minute on 2 cores.
+    #[arg(long)]
+    pub quick: bool,
+    /// Scenes (default: cornell,sponza).
+    #[arg(long, value_delimiter = ',')]
+    pub scenes: Option<Vec<String>>,
+    /// Output.
+    #[command(flatten)]
+    pub output: OutputArgs,
 }
 
 /// Arguments of `wfic reproduce direct`.
@@ -537,6 +554,35 @@ fn direct(a: DirectArgs, dry_run: bool) -> Result<(), String> {
     Ok(())
 }
 
+fn scaling(a: ScalingArgs, dry_run: bool) -> Result<(), String> {
+    let scenes = a
+        .scenes
+        .unwrap_or_else(|| vec!["cornell".to_owned(), "sponza".to_owned()]);
+    let config = if a.quick {
+        crate::scaling::ScalingConfig::quick(scenes)
+    } else {
+        crate::scaling::ScalingConfig::full(scenes)
+    };
+    let side = config.largest();
+    check_resources(crate::scaling::THREADS, Some((side, side)))?;
+    if dry_run {
+        return Ok(());
+    }
+    let points_per_scene = config.sizes.len() + config.accuracies.len();
+    let progress =
+        Progress::new(config.scenes.len() * points_per_scene, a.output.quiet).echo(a.output.quiet);
+    let start = std::time::Instant::now();
+    let points = progress.run(|p| crate::scaling::run(&config, p))?;
+    crate::scaling::write(&points, &config, &a.output.out_dir, &command_line())?;
+    print_checks(&crate::scaling::checks(&points, config.goal_sizes));
+    println!(
+        "wrote {}/scaling.md, scaling.csv, scaling.png, scaling.svg ({:.0} s)",
+        a.output.out_dir.display(),
+        start.elapsed().as_secs_f64()
+    );
+    Ok(())
+}
+
 /// Runs `wfic reproduce ...`; with `dry_run`, only checks its arguments and resources.
 pub fn run(command: ReproduceCommand, dry_run: bool) -> Result<(), String> {
     let machine = Machine::detect();
@@ -547,6 +593,7 @@ pub fn run(command: ReproduceCommand, dry_run: bool) -> Result<(), String> {
         ReproduceCommand::Animation(a) => animation(a, &machine, dry_run),
         ReproduceCommand::Deterministic(a) => deterministic(a, &machine, dry_run),
         ReproduceCommand::Direct(a) => direct(a, dry_run),
+        ReproduceCommand::Scaling(a) => scaling(a, dry_run),
     }
 }
 
