@@ -315,7 +315,7 @@ fn or_quick<T>(value: Option<T>, quick: bool, (q, full): (T, T)) -> T {
 }
 
 /// Prints the checks as `yes claim: figures` lines.
-fn print_checks(checks: &[Check]) {
+pub(crate) fn print_checks(checks: &[Check]) {
     for c in checks {
         println!("{:<4} {}: {}", c.verdict.plain(), c.claim, c.detail);
     }
@@ -554,35 +554,6 @@ fn direct(a: DirectArgs, dry_run: bool) -> Result<(), String> {
     Ok(())
 }
 
-fn scaling(a: ScalingArgs, dry_run: bool) -> Result<(), String> {
-    let scenes = a
-        .scenes
-        .unwrap_or_else(|| vec!["cornell".to_owned(), "sponza".to_owned()]);
-    let config = if a.quick {
-        crate::scaling::ScalingConfig::quick(scenes)
-    } else {
-        crate::scaling::ScalingConfig::full(scenes)
-    };
-    let side = config.largest();
-    check_resources(crate::scaling::THREADS, Some((side, side)))?;
-    if dry_run {
-        return Ok(());
-    }
-    let points_per_scene = config.sizes.len() + config.accuracies.len();
-    let progress =
-        Progress::new(config.scenes.len() * points_per_scene, a.output.quiet).echo(a.output.quiet);
-    let start = std::time::Instant::now();
-    let points = progress.run(|p| crate::scaling::run(&config, p))?;
-    crate::scaling::write(&points, &config, &a.output.out_dir, &command_line())?;
-    print_checks(&crate::scaling::checks(&points, config.goal_sizes));
-    println!(
-        "wrote {}/scaling.md, scaling.csv, scaling.png, scaling.svg ({:.0} s)",
-        a.output.out_dir.display(),
-        start.elapsed().as_secs_f64()
-    );
-    Ok(())
-}
-
 /// Runs `wfic reproduce ...`; with `dry_run`, only checks its arguments and resources.
 pub fn run(command: ReproduceCommand, dry_run: bool) -> Result<(), String> {
     let machine = Machine::detect();
@@ -593,7 +564,7 @@ pub fn run(command: ReproduceCommand, dry_run: bool) -> Result<(), String> {
         ReproduceCommand::Animation(a) => animation(a, &machine, dry_run),
         ReproduceCommand::Deterministic(a) => deterministic(a, &machine, dry_run),
         ReproduceCommand::Direct(a) => direct(a, dry_run),
-        ReproduceCommand::Scaling(a) => scaling(a, dry_run),
+        ReproduceCommand::Scaling(a) => crate::scaling::reproduce(a, dry_run),
     }
 }
 

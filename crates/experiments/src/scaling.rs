@@ -16,10 +16,14 @@
 //! records a megapixel, and with them the hemisphere rays a pixel, fall as the image grows
 //! towards the pixels' own work; the table shows how far.
 
+use crate::bounds::check_resources;
+use crate::harness::measure::Progress;
+use crate::harness::provenance::command_line;
 use crate::harness::stats::median;
 use crate::harness::table::Table;
 use crate::harness::{Check, Machine, Output, Provenance, Verdict};
 use crate::plot::{Figure, Line, Panel};
+use crate::reproduce_cli::{print_checks, ScalingArgs};
 use std::path::Path;
 use wfic::cache::Scheme;
 use wfic_render::{render_with_scheme, scenes, RenderSettings};
@@ -221,6 +225,40 @@ pub fn checks(points: &[Point], sizes: (u32, u32)) -> Vec<Check> {
             )
         })
         .collect()
+}
+
+/// Runs `wfic reproduce scaling`; with `dry_run`, only checks its arguments and resources.
+///
+/// # Errors
+/// Too few threads or too little memory for the largest image, an unknown scene, a file that
+/// cannot be written.
+pub fn reproduce(a: ScalingArgs, dry_run: bool) -> Result<(), String> {
+    let scenes = a
+        .scenes
+        .unwrap_or_else(|| vec!["cornell".to_owned(), "sponza".to_owned()]);
+    let config = if a.quick {
+        ScalingConfig::quick(scenes)
+    } else {
+        ScalingConfig::full(scenes)
+    };
+    let side = config.largest();
+    check_resources(THREADS, Some((side, side)))?;
+    if dry_run {
+        return Ok(());
+    }
+    let points_per_scene = config.sizes.len() + config.accuracies.len();
+    let progress =
+        Progress::new(config.scenes.len() * points_per_scene, a.output.quiet).echo(a.output.quiet);
+    let start = std::time::Instant::now();
+    let points = progress.run(|p| run(&config, p))?;
+    write(&points, &config, &a.output.out_dir, &command_line())?;
+    print_checks(&checks(&points, config.goal_sizes));
+    println!(
+        "wrote {}/scaling.md, scaling.csv, scaling.png, scaling.svg ({:.0} s)",
+        a.output.out_dir.display(),
+        start.elapsed().as_secs_f64()
+    );
+    Ok(())
 }
 
 /// Writes `scaling.md`, `scaling.csv` and the figure `scaling.png` / `.svg` into `out_dir`.
