@@ -261,6 +261,43 @@ pub fn reproduce(a: ScalingArgs, dry_run: bool) -> Result<(), String> {
     Ok(())
 }
 
+/// The size sweep of `scene` fitted by least squares as `ns a pixel = floor + records a pixel x
+/// cost a record`: the pixels' own work and the records' (their hemisphere rays), apart.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Split {
+    /// Nanoseconds a pixel with no record to compute.
+    pub floor_ns: f64,
+    /// Microseconds a record.
+    pub record_us: f64,
+    /// The fit's coefficient of determination.
+    pub r2: f64,
+}
+
+/// The [`Split`] of `scene`'s size sweep (at least two sizes), or `None`.
+pub fn split(points: &[Point], scene: &str) -> Option<Split> {
+    let xy: Vec<(f64, f64)> = (points.iter())
+        .filter(|p| p.scene == scene && p.sweep == Sweep::Size)
+        .map(|p| (p.records as f64 / p.pixels(), p.ns_per_pixel()))
+        .collect();
+    let n = xy.len() as f64;
+    if xy.len() < 2 {
+        return None;
+    }
+    let (mx, my) = (
+        xy.iter().map(|p| p.0).sum::<f64>() / n,
+        xy.iter().map(|p| p.1).sum::<f64>() / n,
+    );
+    let sxx: f64 = xy.iter().map(|p| (p.0 - mx) * (p.0 - mx)).sum();
+    let sxy: f64 = xy.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum();
+    let syy: f64 = xy.iter().map(|p| (p.1 - my) * (p.1 - my)).sum();
+    let slope = sxy / sxx;
+    Some(Split {
+        floor_ns: my - slope * mx,
+        record_us: slope / 1e3,
+        r2: sxy * sxy / (sxx * syy),
+    })
+}
+
 /// Writes `scaling.md`, `scaling.csv` and the figure `scaling.png` / `.svg` into `out_dir`.
 ///
 /// # Errors
@@ -303,13 +340,32 @@ pub fn write(
                 .map_or("n/a".to_owned(), |b| format!("{:.1}", b as f64 / 1048576.0))
         });
     let rows: Vec<&Point> = points.iter().collect();
+    let mut scenes: Vec<&str> = points.iter().map(|p| p.scene.as_str()).collect();
+    scenes.dedup();
+    let splits: Vec<(&str, Split)> = (scenes.into_iter())
+        .filter_map(|s| split(points, s).map(|f| (s, f)))
+        .collect();
+    let split_table = Table::new()
+        .md("scene", |(s, _): &(&str, Split)| s.to_string())
+        .left()
+        .md("ns a pixel without records", |(_, f)| {
+            format!("{:.0}", f.floor_ns)
+        })
+        .md("µs a record", |(_, f)| format!("{:.0}", f.record_us))
+        .md("R²", |(_, f)| format!("{:.3}", f.r2));
     let body = format!(
         "Each point is one frame on a fresh WF cache at {THREADS} threads (default settings but \
          the one varied); seconds are the median of three renders up to 512 x 512, one render \
          above. How to read it: [docs/experiments.md](../../docs/experiments.md#scaling).\n\n\
-         {}\n## Goal\n\n{}",
+         {}\n## Goal\n\n{}\n## Where the time goes\n\nThe size sweep fitted as `ns a pixel = \
+         floor + records a pixel x cost a record`: a pixel's own work (its primary ray, direct \
+         light and lookup) and its share of the records' hemisphere rays. The records grow with \
+         the image only where a radius clamp in pixel footprints decides a record's radius; \
+         where Ward's radius or the scene's clamps decide, they do not. So the records a pixel \
+         fall as the image grows, and time a pixel falls towards the floor.\n\n{}",
         table.markdown(&rows),
-        Check::markdown(&checks(points, config.goal_sizes), true)
+        Check::markdown(&checks(points, config.goal_sizes), true),
+        split_table.markdown(&splits)
     );
     out.markdown(
         "scaling.md",
@@ -457,6 +513,27 @@ mod tests {
         assert_eq!(checks[0].verdict, Verdict::Yes, "{:?}", checks[0]);
         assert_eq!(checks[1].verdict, Verdict::No, "{:?}", checks[1]);
         assert!(checks[1].detail.starts_with("1.75x"), "{:?}", checks[1]);
+    }
+
+    #[test]
+    fn the_split_recovers_a_floor_and_a_cost_a_record() {
+        // ns a pixel = 4000 + records a pixel x 300 000 (300 µs a record), exactly.
+        let points: Vec<Point> = [(128, 2000), (512, 8000), (2048, 40000)]
+            .into_iter()
+            .map(|(side, records)| {
+                let pixels = f64::from(side * side);
+                let ns = 4000.0 + records as f64 / pixels * 300_000.0;
+                Point {
+                    records,
+                    ..point("a", side, ns * pixels / 1e9)
+                }
+            })
+            .collect();
+        let f = split(&points, "a").unwrap();
+        assert!((f.floor_ns - 4000.0).abs() < 1e-6, "{f:?}");
+        assert!((f.record_us - 300.0).abs() < 1e-9, "{f:?}");
+        assert!((f.r2 - 1.0).abs() < 1e-12, "{f:?}");
+        assert_eq!(split(&points[..1], "a"), None);
     }
 
     #[test]
