@@ -7,6 +7,8 @@ use std::fmt::Write as _;
 pub struct Context {
     date: String,
     load: String,
+    /// The busiest other processes: CPU share, nice, name.
+    busy: String,
 }
 
 fn command(cmd: &str, args: &[&str]) -> String {
@@ -42,6 +44,21 @@ impl Context {
         Self {
             date: command("date", &["-u", "+%Y-%m-%d %H:%M UTC"]),
             load: loadavg(),
+            busy: command("ps", &["-eo", "pcpu=,ni=,comm=", "--sort=-pcpu"])
+                .lines()
+                .filter(|l| !l.contains("records_held"))
+                .take(4)
+                .map(|l| {
+                    let f: Vec<&str> = l.split_whitespace().collect();
+                    format!(
+                        "`{}` {}% at nice {}",
+                        f.get(2).unwrap_or(&"?"),
+                        f[0],
+                        f.get(1).unwrap_or(&"?")
+                    )
+                })
+                .collect::<Vec<_>>()
+                .join(", "),
         }
     }
 }
@@ -360,13 +377,16 @@ pub fn write(started: &Context, rows: &[Row], run: &Run) {
          - machine: **{cpu}**, {cores} logical CPUs; {rustc}; commit {commit}{dirty}\n\
          - run: {} to {}; load average (1, 5, 15 min) {} at the start, {} at the end. The machine \
          is shared: another job (a loom sweep at nice 5) kept a core busy during the run, so the \
-         nanoseconds carry its load; the ABBA ratios are what to read.\n\
+         nanoseconds carry its load; the ABBA ratios are what to read. The busiest other \
+         processes at the start: {}; at the end: {}.\n\
          - {} ABBA rounds of {} queries per pair, {} insert rounds of 1 024 records. Every figure \
          is from this CPU; do not compare it with another CPU's.\n\n",
         started.date,
         ended.date,
         started.load,
         ended.load,
+        started.busy,
+        ended.busy,
         run.rounds,
         super::QUERIES,
         run.insert_rounds,
@@ -376,6 +396,9 @@ pub fn write(started: &Context, rows: &[Row], run: &Run) {
         } else {
             ""
         },
+    );
+    s.push_str(
+        "What this run shows, and where the time goes, read by hand: [analysis.md](analysis.md).\n\n",
     );
     s.push_str("## Goals\n\n");
     s.push_str(&goals(rows));
