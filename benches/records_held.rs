@@ -24,7 +24,8 @@
 //! The full run writes `results/records-held/README.md` and `results.csv`. `-- --test` runs
 //! 10^3 and 10^4 records for a few rounds and asserts that every scheme gives TRA's answers.
 //!
-//! Run: `cargo bench --bench records_held [-- [--sizes 1000,10000] [--rounds N] [SCHEME...]]`,
+//! Run: `cargo bench --bench records_held [-- [--sizes 1000,10000] [--rounds N] [--no-real]
+//! [SCHEME...]]` (a run with `--sizes` prints its tables and writes no page),
 //! schemes `wf`, `lck` (the mutex flavour), `lw` (all by default).
 
 mod common;
@@ -607,7 +608,7 @@ fn main() {
         let set = ward_for(n, &mut hint, !test);
         rows.push(bench_set(&set, &run));
     }
-    if !test {
+    if !test && !args.iter().any(|a| a == "--no-real") {
         for set in real_sets() {
             rows.push(bench_set(&set, &run));
         }
