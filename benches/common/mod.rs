@@ -13,6 +13,8 @@ use wfic::cache::{CacheConfig, CacheHandle, IrradianceCache, Octree};
 use wfic::ic::{clamp_radius, Accumulator, Record, WorkerId};
 use wfic::rng::Rng;
 
+pub mod ward;
+
 /// Records in the cache before any timed operation.
 pub const PREFILL: usize = 4096;
 /// Distinct lookup queries, cycled through.
