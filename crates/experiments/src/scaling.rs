@@ -221,7 +221,7 @@ pub fn checks(points: &[Point], sizes: (u32, u32)) -> Vec<Check> {
                     sizes.0, sizes.1
                 ),
                 Verdict::of(ratio <= 1.5),
-                format!("{ratio:.2}x ({lo:.0} to {hi:.0} ns a pixel)"),
+                format!("{ratio:.3}x ({lo:.0} to {hi:.0} ns a pixel)"),
             )
         })
         .collect()
@@ -512,7 +512,7 @@ mod tests {
         assert_eq!(checks.len(), 2);
         assert_eq!(checks[0].verdict, Verdict::Yes, "{:?}", checks[0]);
         assert_eq!(checks[1].verdict, Verdict::No, "{:?}", checks[1]);
-        assert!(checks[1].detail.starts_with("1.75x"), "{:?}", checks[1]);
+        assert!(checks[1].detail.starts_with("1.750x"), "{:?}", checks[1]);
     }
 
     #[test]
