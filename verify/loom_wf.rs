@@ -77,6 +77,11 @@ fn a_segment_grows_while_another_thread_inserts_and_a_third_reads_minimal() {
 }
 
 #[test]
+fn a_sealed_list_grows_while_another_thread_reads_minimal() {
+    model(a_sealed_list_grows_while_another_thread_reads::<Minimal>);
+}
+
+#[test]
 fn two_inserts_race_to_install_one_segment_minimal() {
     model(two_inserts_race_to_install_one_segment::<Minimal>);
 }

@@ -48,17 +48,23 @@ struct Size {
     mean_list: f64,
     /// WF's spare slot bytes under each of [`POLICIES`].
     policies: Vec<u64>,
-    /// WF's lists by the segments they have allocated: (segments, lists, records, spare bytes).
+    /// WF's lists by the blocks they hold after the frame's close: (segments grown, 0 for a list
+    /// rebuilt as one block; lists, records, spare bytes).
     by_segments: Vec<(u32, u64, u64, u64)>,
 }
 
-/// WF's lists grouped by how many segments each has allocated.
+/// WF's lists grouped by how many segments each holds after the frame's close (0: rebuilt as one
+/// block).
 fn by_segments(shape: &tree_shape::TreeShape) -> Vec<(u32, u64, u64, u64)> {
     let mut groups: Vec<(u32, u64, u64, u64)> = Vec::new();
     for len in shape.list_lengths().filter(|&len| len > 0) {
         let capacity = wf_capacity(len);
         // Capacities 4, 12, 28, ...: 4 (2^s - 1) for s segments.
-        let segments = (capacity / WF_FIRST_SEGMENT + 1).trailing_zeros();
+        let segments = if wf_rebuilt(len) {
+            0
+        } else {
+            (capacity / WF_FIRST_SEGMENT + 1).trailing_zeros()
+        };
         let spare = (capacity - len) * WF_SLOT as u64;
         match groups.iter_mut().find(|g| g.0 == segments) {
             Some(g) => {
@@ -302,7 +308,9 @@ fn page(results: &[Size], quick: bool) -> String {
          records' tree shape worked out from the public geometry (`verify/tree_shape.rs`), \
          checked against each cache's `stats()` (records and nodes equal); the sizes are the \
          documented layouts (WF node {WF_NODE} B, WF slot {WF_HOT} + {} B, segments of 4, 8, 16, \
-         ... slots, a {WF_DIRECTORY}-byte directory once a list outgrows its first segment; the \
+         ... slots, a {WF_DIRECTORY}-byte directory once a list outgrows its first segment, and \
+         at the frame's close a list past its first segment with more than a sixteenth unused \
+         rebuilt as one block of its length, without a directory; the \
          arena octree's node {ARENA_NODE} B and `Vec`s doubling from 4). *records* and *keys* \
          are N x {} and N x {}; *slot extra* WF's state byte and padding; *spare* capacity \
          allocated and unused (WF: unreserved slots of allocated segments; arena: `Vec` capacity \
@@ -448,10 +456,12 @@ fn where_wf_bytes_go(p: &mut String, size: &Size) {
     writeln!(
         p,
         "Per record, WF's floor is its slot ({WF_HOT} + {} B) and its share of the nodes and \
-         directories; the rest is *spare*: slots of allocated segments that no record uses. A \
-         list of `len` records holds segments of 4, 8, 16, ... slots up to the one `len` \
-         reaches, so after its last doubling up to half its slots are empty. The lists, by \
-         segments allocated:
+         directories; the rest is *spare*: slots of allocated blocks that no record uses. During \
+         a frame a list of `len` records holds segments of 4, 8, 16, ... slots up to the one \
+         `len` reaches, so after its last doubling up to half its slots are empty. When the \
+         frame closes, a list past its first segment with more than a sixteenth of its slots \
+         unused is rebuilt as one block of `len` slots (`src/cache/wf/list.rs`, 5). The lists \
+         after the close, by segments held (*one block*: rebuilt):
 ",
         std::mem::size_of::<Record>()
     )
@@ -463,21 +473,27 @@ fn where_wf_bytes_go(p: &mut String, size: &Size) {
     .unwrap();
     writeln!(p, "|---:|---:|---:|---:|---:|---:|").unwrap();
     for &(segments, lists, records, spare) in &size.by_segments {
+        let (segments, slots) = if segments == 0 {
+            ("one block".to_string(), records.to_string())
+        } else {
+            (
+                segments.to_string(),
+                (WF_FIRST_SEGMENT * ((1 << segments) - 1)).to_string(),
+            )
+        };
         writeln!(
             p,
-            "| {segments} | {} | {lists} | {records} | {spare} | {} |",
-            WF_FIRST_SEGMENT * ((1 << segments) - 1),
+            "| {segments} | {slots} | {lists} | {records} | {spare} | {} |",
             per(spare, n)
         )
         .unwrap();
     }
     writeln!(
         p,
-        "\nThe same lists under other growth policies (spare recomputed, everything else as \
-         measured; a model, not a build). A policy whose segments stop doubling needs a \
-         directory that grows with the list (49 entries then no longer cover any address \
-         space), a pointer a segment; that, and the compaction's copying at each frame close, \
-         are not in these figures:\n"
+        "\nThe same lists under other growth policies (spare recomputed, everything else, the \
+         directories too, as measured; a model, not a build). A policy whose segments stop \
+         doubling needs a directory that grows with the list (49 entries then no longer cover \
+         any address space), a pointer a segment; that is not in these figures:\n"
     )
     .unwrap();
     writeln!(p, "| policy | spare B/record | total B/record | ratio |").unwrap();

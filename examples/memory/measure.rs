@@ -255,14 +255,18 @@ impl Split {
 }
 
 /// A WF node, as `src/cache/wf/mod.rs` lays it out and its unit test pins: the occupancy mask
-/// (padded to a word), the list's head and first-segment pointer, eight child pointers.
-pub const WF_NODE: usize = size_of::<usize>() + 2 * size_of::<usize>() + size_of::<[usize; 8]>();
+/// (padded to a word), the list's head, first-block pointer and first-block length, eight child
+/// pointers.
+pub const WF_NODE: usize = size_of::<usize>() + 3 * size_of::<usize>() + size_of::<[usize; 8]>();
 /// A WF slot's hot half: the key and the state byte, padded to the key's alignment.
 pub const WF_HOT: usize = (size_of::<Key>() + 1).next_multiple_of(align_of::<Key>());
 /// A WF slot: its hot half and its record (`list.rs`).
 pub const WF_SLOT: usize = WF_HOT + size_of::<Record>();
 /// The first segment's slots; each later segment doubles (`list.rs`, `BASE_SHIFT`).
 pub const WF_FIRST_SEGMENT: u64 = 4;
+/// A list past its first block is rebuilt as one block at the frame's close when its unused slots
+/// exceed its records over this (`list.rs`, `SPARE_DIVISOR`).
+pub const WF_SPARE_DIVISOR: u64 = 16;
 /// The directory of a list's later segments: one pointer for each of segments 1 to 49 (`list.rs`,
 /// `SEGMENTS`), allocated when a list first outgrows its first segment.
 pub const WF_DIRECTORY: usize = 49 * size_of::<usize>();
@@ -272,8 +276,27 @@ pub const WF_DIRECTORY: usize = 49 * size_of::<usize>();
 pub const ARENA_NODE: usize =
     (size_of::<[u32; 8]>() + 1 + 2 * size_of::<Vec<u8>>()).next_multiple_of(align_of::<usize>());
 
-/// The slots a WF list of `len` records has allocated: whole segments of 4, 8, 16, ...
+/// The slots a WF list of `len` records holds once the frame that filled it closed: the segments
+/// it grew, unless more than a sixteenth of them are unused past the first segment, when the
+/// frame's close rebuilt it as one block of `len` slots (`list.rs`, 5).
 pub fn wf_capacity(len: u64) -> u64 {
+    let grown = wf_grown_capacity(len);
+    if wf_rebuilt(len) {
+        len
+    } else {
+        grown
+    }
+}
+
+/// Whether the frame's close rebuilt a WF list of `len` records, grown in that frame, as one block.
+pub fn wf_rebuilt(len: u64) -> bool {
+    let grown = wf_grown_capacity(len);
+    grown > WF_FIRST_SEGMENT && (grown - len) * WF_SPARE_DIVISOR > len
+}
+
+/// The slots a WF list of `len` records has allocated within a frame: whole segments of 4, 8,
+/// 16, ...
+pub fn wf_grown_capacity(len: u64) -> u64 {
     let (mut capacity, mut segment) = (0, WF_FIRST_SEGMENT);
     while capacity < len {
         capacity += segment;
@@ -318,7 +341,7 @@ pub fn attribute(scheme: Scheme, n: u64, shape: &TreeShape, fixed: u64) -> Split
             for len in shape.list_lengths().filter(|&len| len > 0) {
                 split.spare += (wf_capacity(len) - len) * WF_SLOT as u64;
                 split.index += size_of::<usize>() as u64;
-                if len > WF_FIRST_SEGMENT {
+                if len > WF_FIRST_SEGMENT && !wf_rebuilt(len) {
                     split.index += WF_DIRECTORY as u64;
                 }
             }
@@ -495,10 +518,15 @@ fn capacity_exact(len: u64) -> u64 {
 }
 
 /// The policies the page compares, the built one first.
-pub const POLICIES: [Policy; 5] = [
+pub const POLICIES: [Policy; 6] = [
     Policy {
-        name: "as built: segments of 4, 8, 16, ... slots",
+        name: "as built: segments of 4, 8, 16, ... slots; rebuilt as one block at the frame's \
+               close past a sixteenth unused",
         capacity: wf_capacity,
+    },
+    Policy {
+        name: "segments of 4, 8, 16, ... slots, never rebuilt (as during a frame)",
+        capacity: wf_grown_capacity,
     },
     Policy {
         name: "segments of 4, 4, 8, 8, 16, 16, ... slots",
@@ -513,7 +541,7 @@ pub const POLICIES: [Policy; 5] = [
         capacity: capacity_fixed_eight,
     },
     Policy {
-        name: "lists compacted to their length when a frame closes",
+        name: "every list rebuilt to its length when a frame closes, however little unused",
         capacity: capacity_exact,
     },
 ];

@@ -158,6 +158,58 @@ pub fn a_segment_grows_while_another_thread_inserts_and_a_third_reads<O: Orderin
     assert_eq!(list.published(), 3);
 }
 
+/// A list rebuilt as one block at the frame's close grows on in the next frame. Three records in
+/// the root's list fill a first segment of two and one slot of the next (four): three of six slots
+/// unused, so the close rebuilds the list as one block of three. In the next frame one append
+/// installs the directory and the first segment after that block (slot 3) while another thread
+/// reads: the reader sees every record sealed before the frame, whole, and sees the append whole
+/// or not at all. (Two appends racing for a directory and a segment are
+/// `two_inserts_race_to_install_one_segment`; the block's length changes only where the directory
+/// pointer lies.) A later append (slot 4) lands in the same segment; the next close rebuilds the
+/// list again, at five slots, and loom's leak check sees every block the rebuilds replaced freed.
+pub fn a_sealed_list_grows_while_another_thread_reads<O: Orderings>() {
+    let mut cache = WaitFree::<O>::new(config(), CasFailure::Adopt);
+    let mut h = cache.handle(WorkerId::new(0));
+    for k in 0..3 {
+        assert!(matches!(
+            h.insert(root_record(k as f32 * 0.1)),
+            Ok(Inserted::Stored(_))
+        ));
+    }
+    drop(h);
+    cache.end_frame();
+    assert_eq!(
+        (cache.allocated_slots(), cache.stats().records),
+        (3, 3),
+        "the close did not rebuild the list at its length"
+    );
+    let cache = Arc::new(cache);
+    let c = cache.clone();
+    let writer = thread::spawn(move || insert_one(&*c, 1, root_record(0.3)));
+    let found = valid_at(&*cache, 2, Vec3::splat(2.0));
+    assert!(found.iter().all(|r| r.is_intact()), "torn record");
+    assert!(
+        found.len() >= 3,
+        "a record sealed before the frame was missed: {} found",
+        found.len()
+    );
+    assert!(matches!(writer.join().unwrap().0, Inserted::Stored(_)));
+    assert!(matches!(
+        insert_one(&*cache, 3, root_record(0.4)).0,
+        Inserted::Stored(_)
+    ));
+    let mut cache = Arc::try_unwrap(cache).unwrap_or_else(|_| panic!("threads joined"));
+    let found = valid_at(&cache, 0, Vec3::splat(2.0));
+    let ids: HashSet<_> = found.iter().map(|r| r.id()).collect();
+    assert_eq!(ids.len(), 5, "records lost or duplicated after the block");
+    cache.end_frame();
+    assert_eq!(
+        (cache.allocated_slots(), cache.stats().records),
+        (5, 5),
+        "the second close did not rebuild the list at its length"
+    );
+}
+
 /// Two appends race to install the same missing segment (slots 2 and 3 are segment 1), and before
 /// it the list's directory of later segments: each race is won by one compare-and-swap, and the
 /// loser frees its own directory or segment and uses the winner's.

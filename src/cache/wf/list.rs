@@ -37,6 +37,16 @@
 //!    removed record back. Readers take only live slots. The slots themselves are reclaimed when
 //!    the cache has `&mut` access (`compact`, at the frame's close): the live records move to a
 //!    fresh list, and no reader can exist.
+//! 5. **One block at the frame's close.** Doubling segments leave up to half a long list's slots
+//!    unused, and a scan of a list past its first segment goes through the directory. So `compact`
+//!    also rebuilds a list that has outgrown its first block once its unused slots exceed a
+//!    sixteenth of its records ([`SPARE_DIVISOR`]): the records move, in slot order, into a
+//!    single first block of exactly their number. A list's first block therefore holds
+//!    `first_len` slots (`segment_len(0)`, or more once sealed), and later inserts open segments
+//!    of 8, 16, ... slots after it, as for any list. The rule bounds a list's unused slots at a
+//!    frame's close by a sixteenth of its records (past its first block), and each record is
+//!    copied a bounded number of times on average: a rebuilt list has no spare, and must grow by
+//!    at least a sixteenth of its length, or open a segment, before it is rebuilt again.
 //!
 //! Every operation is wait-free: a push is one `fetch_add`, at most one segment compare-and-swap
 //! (never retried: if it fails, somebody else's segment is as good), one write and one store; a
@@ -57,6 +67,10 @@ const BASE_SHIFT: u32 = 2;
 /// inserts. This shouldn't change the logic, only how soon the model meets it.
 #[cfg(feature = "loom")]
 const BASE_SHIFT: u32 = 1;
+
+/// A list that has outgrown its first block is rebuilt as one block at the frame's close when its
+/// unused slots exceed its records over this (module documentation, 5).
+pub(crate) const SPARE_DIVISOR: usize = 16;
 
 /// Number of segments: more slots than any address space can hold (see the module documentation).
 #[cfg(not(feature = "loom"))]
@@ -123,7 +137,7 @@ impl Hot {
 type Segment = (Box<[Hot]>, Box<[Cold]>, Box<Directory>);
 
 /// The pointers of a list's segments after the first: entry `s - 1` is segment `s`'s, null or an
-/// allocation of `segment_layout(s)` (hot halves, then cold ones).
+/// allocation of `block_layout(segment_len(s), false)` (hot halves, then cold ones).
 struct Directory {
     entries: [AtomicPtr<Hot>; SEGMENTS - 1],
     /// Under loom, a directory never freed fails the model (`Allocation leaked.`).
@@ -141,18 +155,18 @@ impl Directory {
     }
 }
 
-/// The layout of segment `segment` (its hot halves, then its cold halves, then for the first
-/// segment the pointer to the directory of the others) and the byte offset of the cold halves.
+/// The layout of a block of `len` slots (its hot halves, then its cold halves, then for a list's
+/// first block the pointer to the directory of the later segments) and the byte offset of the
+/// cold halves.
 ///
 /// # Panics
-/// If the segment would not fit the address space (only segments far beyond any memory).
-fn segment_layout(segment: usize) -> (Layout, usize) {
-    let len = segment_len(segment);
+/// If the block would not fit the address space (only blocks far beyond any memory).
+fn block_layout(len: usize, first: bool) -> (Layout, usize) {
     let too_large = "record list segment larger than the address space";
     let hot = Layout::array::<Hot>(len).expect(too_large);
     let cold = Layout::array::<Cold>(len).expect(too_large);
     let (layout, cold_offset) = hot.extend(cold).expect(too_large);
-    let layout = if segment == 0 {
+    let layout = if first {
         let directory = Layout::new::<AtomicPtr<Directory>>();
         layout.extend(directory).expect(too_large).0
     } else {
@@ -161,47 +175,44 @@ fn segment_layout(segment: usize) -> (Layout, usize) {
     (layout.pad_to_align(), cold_offset)
 }
 
-/// Where the directory pointer lies in the first segment: after its cold halves, aligned.
+/// Where the directory pointer lies in a first block of `len` slots: after its cold halves,
+/// aligned.
 #[inline(always)]
-const fn directory_offset() -> usize {
-    (cold_offset(0) + segment_len(0) * size_of::<Cold>())
+const fn directory_offset(len: usize) -> usize {
+    (cold_offset(len) + len * size_of::<Cold>())
         .next_multiple_of(align_of::<AtomicPtr<Directory>>())
 }
 
-/// The directory pointer in the first segment at `first`.
+/// The directory pointer in the first block at `first`, of `len` slots.
 ///
-/// SAFETY: `first` must be a live first segment from `new_segment(0)`.
+/// SAFETY: `first` must be a live first block from `new_block(len, true)`.
 #[inline(always)]
-unsafe fn directory_pointer(first: *mut Hot) -> *mut AtomicPtr<Directory> {
-    // SAFETY: the pointer lies `directory_offset()` bytes into the first segment (checked against
-    // `segment_layout` by a test).
+unsafe fn directory_pointer(first: *mut Hot, len: usize) -> *mut AtomicPtr<Directory> {
+    // SAFETY: the pointer lies `directory_offset(len)` bytes into the first block (checked
+    // against `block_layout` by a test).
     unsafe {
         first
-            .byte_add(directory_offset())
+            .byte_add(directory_offset(len))
             .cast::<AtomicPtr<Directory>>()
     }
 }
 
-/// The cold half of slot `offset` in the segment at `base`.
+/// The cold half of slot `offset` in the block of `len` slots at `base`.
 ///
-/// SAFETY: `base` must be a live segment `segment` from `install`, and `offset` below its length.
+/// SAFETY: `base` must be a live block of `len` slots from `install`, and `offset` below `len`.
 #[inline(always)]
-unsafe fn cold(base: *mut Hot, segment: usize, offset: usize) -> *mut Cold {
-    // SAFETY: the cold halves start `cold_offset(segment)` bytes into the allocation (checked
-    // against `segment_layout` by a test), and `offset` is within them (the caller's guarantee).
-    unsafe {
-        base.byte_add(cold_offset(segment))
-            .cast::<Cold>()
-            .add(offset)
-    }
+unsafe fn cold(base: *mut Hot, len: usize, offset: usize) -> *mut Cold {
+    // SAFETY: the cold halves start `cold_offset(len)` bytes into the allocation (checked
+    // against `block_layout` by a test), and `offset` is within them (the caller's guarantee).
+    unsafe { base.byte_add(cold_offset(len)).cast::<Cold>().add(offset) }
 }
 
-/// Where the cold halves of segment `segment` start: after its hot halves, rounded up to the
-/// cold halves' alignment (what `Layout::extend` computes, without its overflow checks, which
-/// `segment_layout` made when the segment was allocated).
+/// Where the cold halves of a block of `len` slots start: after its hot halves, rounded up to
+/// the cold halves' alignment (what `Layout::extend` computes, without its overflow checks, which
+/// `block_layout` made when the block was allocated).
 #[inline(always)]
-const fn cold_offset(segment: usize) -> usize {
-    (segment_len(segment) * size_of::<Hot>()).next_multiple_of(align_of::<Cold>())
+const fn cold_offset(len: usize) -> usize {
+    (len * size_of::<Hot>()).next_multiple_of(align_of::<Cold>())
 }
 
 /// The list was full (only under `loom`, where capacity is shrunk).
@@ -214,10 +225,13 @@ pub struct ListFull;
 pub struct RecordList<O: Orderings> {
     /// Slots reserved so far (written or not).
     head: AtomicUsize,
-    /// Segment 0: null, or an allocation of `segment_layout(0)` holding `segment_len(0)` hot
-    /// halves, as many cold ones, and the pointer to the [`Directory`] of the later segments (null
-    /// until the list first outgrows this segment).
+    /// Segment 0, the first block: null, or an allocation of `block_layout(first_len, true)`
+    /// holding `first_len` hot halves, as many cold ones, and the pointer to the [`Directory`] of
+    /// the later segments (null until the list first outgrows this block).
     first: AtomicPtr<Hot>,
+    /// The first block's slots: `segment_len(0)`, or a sealed list's length (module
+    /// documentation, 5). Written only with `&mut self` (`compact`), so read plainly.
+    first_len: usize,
     /// The list owns its segments (and, through them, `UnsafeCell`s: not auto-`Sync`).
     _owns: PhantomData<(Segment, O)>,
 }
@@ -231,19 +245,51 @@ unsafe impl<O: Orderings> Sync for RecordList<O> {}
 unsafe impl<O: Orderings> Send for RecordList<O> {}
 
 impl<O: Orderings> RecordList<O> {
-    /// Bytes from the list's start to the end of the first segment pointer: what a scan of a list
-    /// of at most four records reads of the list itself.
+    /// Bytes from the list's start to the end of the first block's length: what a scan of a list
+    /// that fits its first block reads of the list itself.
     #[cfg(all(test, not(checker)))]
     pub(crate) const HOT_FIELDS_END: usize =
-        std::mem::offset_of!(Self, first) + size_of::<AtomicPtr<Hot>>();
+        std::mem::offset_of!(Self, first_len) + size_of::<usize>();
 
     /// An empty list (no segment allocated).
     pub fn new() -> Self {
+        Self::with_first_len(segment_len(0))
+    }
+
+    /// An empty list whose first block, once allocated, holds `first_len` slots.
+    fn with_first_len(first_len: usize) -> Self {
         Self {
             head: AtomicUsize::new(0),
             first: AtomicPtr::new(ptr::null_mut()),
+            first_len,
             _owns: PhantomData,
         }
+    }
+
+    /// The block and offset of slot `index`, or `None` past the last segment: the first block's
+    /// `first_len` slots, then segments 1, 2, ... as in [`locate`].
+    #[inline(always)]
+    fn place(&self, index: usize) -> Option<(usize, usize)> {
+        if index < self.first_len {
+            Some((0, index))
+        } else {
+            locate(index - self.first_len + segment_len(0))
+        }
+    }
+
+    /// How many slots block `segment` holds: the first block's `first_len`, or the segment's.
+    #[inline(always)]
+    fn block_len(&self, segment: usize) -> usize {
+        if segment == 0 {
+            self.first_len
+        } else {
+            segment_len(segment)
+        }
+    }
+
+    /// The number of slots the list can hold.
+    fn capacity(&self) -> usize {
+        self.first_len + (capacity() - segment_len(0))
     }
 
     /// Appends `record` with its `key`; returns the index of its slot.
@@ -252,7 +298,7 @@ impl<O: Orderings> RecordList<O> {
         // Relaxed (Reserve): the read-modify-write alone makes indices unique; nothing is published
         // through the head — readers learn a slot is written from its own flag.
         let index = self.head.fetch_add(1, ord::<O>(Site::Reserve));
-        let (segment, offset) = locate(index).ok_or(ListFull)?;
+        let (segment, offset) = self.place(index).ok_or(ListFull)?;
         // Every segment's pointer is found through the first segment, so it comes first.
         let first = self.segment(&self.first, 0);
         let base = if segment == 0 {
@@ -261,9 +307,14 @@ impl<O: Orderings> RecordList<O> {
             let directory = self.directory(first);
             self.segment(&directory.entries[segment - 1], segment)
         };
-        // SAFETY: `base` is a live segment of `segment_len(segment)` slots and `offset` is below
-        // that length (from `locate`); segments are never freed while `&self` exists.
-        let (hot, cold) = unsafe { (&*base.add(offset), &*cold(base, segment, offset)) };
+        // SAFETY: `base` is a live block of `block_len(segment)` slots and `offset` is below that
+        // length (from `place`); blocks are never freed while `&self` exists.
+        let (hot, cold) = unsafe {
+            (
+                &*base.add(offset),
+                &*cold(base, self.block_len(segment), offset),
+            )
+        };
         hot.key.with_mut(|cell| {
             // SAFETY: `index` came from the `fetch_add` above, so this thread is the only writer of
             // this slot ever; no reader touches it before the ready flag below is set.
@@ -310,8 +361,9 @@ impl<O: Orderings> RecordList<O> {
     fn install(&self, pointer: &AtomicPtr<Hot>, segment: usize) -> *mut Hot {
         // SAFETY (of the closure's call): `publish_once` passes back `fresh` only when its
         // compare-and-swap failed, so the segment was never shared.
-        publish_once::<O, _>(pointer, new_segment(segment), |fresh| unsafe {
-            free_segment(fresh, segment)
+        let (len, first) = (self.block_len(segment), segment == 0);
+        publish_once::<O, _>(pointer, new_block(len, first), |fresh| unsafe {
+            free_block(fresh, len, first)
         })
     }
 
@@ -319,8 +371,9 @@ impl<O: Orderings> RecordList<O> {
     /// (one compare-and-swap, never retried) if it is missing.
     #[inline]
     fn directory(&self, first: *mut Hot) -> &Directory {
-        // SAFETY: `first` is the list's live first segment, which lives as long as `&self`.
-        let pointer = unsafe { &*directory_pointer(first) };
+        // SAFETY: `first` is the list's live first block, of `first_len` slots, which lives as
+        // long as `&self`.
+        let pointer = unsafe { &*directory_pointer(first, self.first_len) };
         // Acquire (SegmentRead): pairs with the Release compare-and-swap in `publish_once`, so the
         // directory's null entries are visible before this thread reads or installs one.
         let existing = pointer.load(ord::<O>(Site::SegmentRead));
@@ -376,14 +429,16 @@ impl<O: Orderings> RecordList<O> {
         if first.is_null() {
             return 0;
         }
-        // The common case, a list of at most four records: its first segment alone.
-        if reserved <= segment_len(0) {
-            // SAFETY: `first` is the live first segment and `reserved` is within it.
-            unsafe { scan_segment::<O>(first, 0, reserved, &admit, f) };
+        // The common case, a list within its first block (four slots, or a sealed list's length).
+        let first_len = self.first_len;
+        if reserved <= first_len {
+            // SAFETY: `first` is the live first block, of `first_len` slots, and `reserved` is
+            // within it.
+            unsafe { scan_segment::<O>(first, first_len, reserved, &admit, f) };
             return reserved as u32;
         }
-        // SAFETY: `first` is the list's live first segment.
-        let pointer = unsafe { &*directory_pointer(first) };
+        // SAFETY: `first` is the list's live first block, of `first_len` slots.
+        let pointer = unsafe { &*directory_pointer(first, first_len) };
         // Acquire (SegmentRead): pairs with the Release in `directory`, as for a segment. A null
         // directory hides the later segments, whose slots were then written by inserts that do
         // not happen-before this scan (a writer installs the directory before its segment).
@@ -394,7 +449,8 @@ impl<O: Orderings> RecordList<O> {
         let mut remaining = reserved;
         let mut segment = 0;
         while remaining > 0 && segment < SEGMENTS {
-            let len = remaining.min(segment_len(segment));
+            let slots = self.block_len(segment);
+            let len = remaining.min(slots);
             let base = if segment == 0 {
                 first
             } else if let Some(directory) = directory {
@@ -404,8 +460,8 @@ impl<O: Orderings> RecordList<O> {
                 break;
             };
             if !base.is_null() {
-                // SAFETY: `base` is live segment `segment` and `len` is within it.
-                unsafe { scan_segment::<O>(base, segment, len, &admit, f) };
+                // SAFETY: `base` is live block `segment`, of `slots` slots, and `len` is within it.
+                unsafe { scan_segment::<O>(base, slots, len, &admit, f) };
                 examined += len as u32;
             }
             remaining -= len;
@@ -428,16 +484,21 @@ impl<O: Orderings> RecordList<O> {
         (removed, examined)
     }
 
-    /// Reclaims the slots of removed records: if any slot is not live, moves the live records,
-    /// in slot order, to a fresh list that replaces this one (freeing every old segment); returns
-    /// the live count. `&mut self`: no reader or writer exists.
+    /// Reclaims the slots of removed records and the spare slots of a grown list: if any reserved
+    /// slot is not live, or the list has outgrown its first block and its unused slots exceed its
+    /// live records over [`SPARE_DIVISOR`], moves the live records, in slot order, into the first
+    /// block of a fresh list that replaces this one (freeing every old block): exactly their
+    /// number of slots, at least `segment_len(0)`. Returns the live count. `&mut self`: no reader
+    /// or writer exists.
     pub(crate) fn compact(&mut self) -> usize {
         let mut live = 0;
         self.visit(|_| true, &mut |_, _, _| live += 1);
-        if live < self.reserved() {
-            let fresh = Self::new();
+        let allocated = self.allocated();
+        let grown = allocated > self.first_len && (allocated - live) * SPARE_DIVISOR > live;
+        if live < self.reserved() || grown {
+            let fresh = Self::with_first_len(live.max(segment_len(0)));
             self.visit(|_| true, &mut |_, key, record| {
-                // A fresh list has room for what an older one held (same capacity).
+                // The fresh list's first block has room for every live record.
                 let pushed = fresh.push_keyed(*key, *record);
                 debug_assert!(pushed.is_ok());
             });
@@ -446,10 +507,32 @@ impl<O: Orderings> RecordList<O> {
         live
     }
 
-    /// Slots reserved, live or not (the memory the list holds is about this many slots).
+    /// Slots reserved, live or not.
     pub(crate) fn reserved(&mut self) -> usize {
         // Relaxed: `&mut self`.
-        self.head.load(Ordering::Relaxed).min(capacity())
+        self.head.load(Ordering::Relaxed).min(self.capacity())
+    }
+
+    /// Slots allocated, reserved or not: the first block's and every installed segment's.
+    pub(crate) fn allocated(&mut self) -> usize {
+        // Relaxed: `&mut self` — every other thread's accesses happen-before this.
+        let first = self.first.load(Ordering::Relaxed);
+        if first.is_null() {
+            return 0;
+        }
+        // SAFETY: `first` is the live first block, of `first_len` slots.
+        let pointer = unsafe { &*directory_pointer(first, self.first_len) };
+        // Relaxed: as above.
+        let directory = pointer.load(Ordering::Relaxed);
+        // SAFETY: a non-null directory is live as long as the list (see `directory`).
+        let later = unsafe { directory.as_ref() }.map_or(0, |directory| {
+            (1..SEGMENTS)
+                // Relaxed: as above.
+                .filter(|&s| !directory.entries[s - 1].load(Ordering::Relaxed).is_null())
+                .map(segment_len)
+                .sum()
+        });
+        self.first_len + later
     }
 
     /// How many records are published (for statistics; `&mut self`, so nothing is in flight).
@@ -522,26 +605,26 @@ fn take<O: Orderings>(state: &AtomicU8) -> bool {
     }
 }
 
-/// The number of slots a list can hold.
+/// The number of slots a list whose first block is `segment_len(0)` can hold.
 const fn capacity() -> usize {
     (1 << BASE_SHIFT) * ((1 << SEGMENTS) - 1)
 }
 
-/// Reads the first `len` slots of the segment at `base` (segment `segment`): calls `f` with each
-/// live slot's state, key and record whose key `admit` passes.
+/// Reads the first `len` slots of the block of `slots` slots at `base`: calls `f` with each live
+/// slot's state, key and record whose key `admit` passes.
 ///
-/// SAFETY: `base` must be a live segment `segment` of a list that outlives the call, and `len` at
-/// most its length.
+/// SAFETY: `base` must be a live block of `slots` slots of a list that outlives the call, and
+/// `len` at most `slots`.
 #[inline(always)]
 unsafe fn scan_segment<O: Orderings>(
     base: *mut Hot,
-    segment: usize,
+    slots: usize,
     len: usize,
     admit: &impl Fn(&Key) -> bool,
     f: &mut impl FnMut(&AtomicU8, &Key, &Record),
 ) {
-    // SAFETY: `len <= segment_len(segment)` hot halves lie at `base`, initialised by
-    // `new_segment` and live as long as the list (the caller's guarantee); they are only ever
+    // SAFETY: `len <= slots` hot halves lie at `base`, initialised by
+    // `new_block` and live as long as the list (the caller's guarantee); they are only ever
     // accessed through `&` (the key through its `UnsafeCell`, the flag atomically).
     let hots = unsafe { std::slice::from_raw_parts(base.cast_const(), len) };
     for hot in hots {
@@ -560,7 +643,7 @@ unsafe fn scan_segment<O: Orderings>(
                 // index, below `len`. Same segment and offset as `hot`.
                 let cold = unsafe {
                     let offset = ptr::from_ref(hot).offset_from(base) as usize;
-                    &*cold(base, segment, offset)
+                    &*cold(base, slots, offset)
                 };
                 cold.record.with(|cell| {
                     // SAFETY: as for the key, under the same state (a removal leaves the record
@@ -572,55 +655,55 @@ unsafe fn scan_segment<O: Orderings>(
     }
 }
 
-/// Allocates segment `segment` with every slot unwritten.
+/// Allocates a block of `len` slots (a list's first block if `first`), every slot unwritten.
 #[cfg_attr(feature = "loom", track_caller)]
-fn new_segment(segment: usize) -> *mut Hot {
-    let (layout, _) = segment_layout(segment);
-    // SAFETY: the layout has a non-zero size (every segment has at least one slot of 32 + 128
+fn new_block(len: usize, first: bool) -> *mut Hot {
+    let (layout, _) = block_layout(len, first);
+    // SAFETY: the layout has a non-zero size (every block has at least one slot of 32 + 128
     // bytes; under loom the halves are loom's, larger still).
     let base = unsafe { alloc::alloc(layout) }.cast::<Hot>();
     if base.is_null() {
         alloc::handle_alloc_error(layout);
     }
-    for offset in 0..segment_len(segment) {
-        // SAFETY: both halves of slot `offset` lie inside the fresh allocation (`segment_layout`)
+    for offset in 0..len {
+        // SAFETY: both halves of slot `offset` lie inside the fresh allocation (`block_layout`)
         // and are written once here, before the pointer is shared.
         unsafe {
             base.add(offset).write(Hot::empty());
-            cold(base, segment, offset).write(Cold {
+            cold(base, len, offset).write(Cold {
                 record: UnsafeCell::new(MaybeUninit::uninit()),
             });
         }
     }
-    if segment == 0 {
-        // SAFETY: the directory pointer lies inside the fresh first segment (`segment_layout`)
-        // and is written once here, before the segment is shared.
-        unsafe { directory_pointer(base).write(AtomicPtr::new(ptr::null_mut())) };
+    if first {
+        // SAFETY: the directory pointer lies inside the fresh first block (`block_layout`) and is
+        // written once here, before the block is shared.
+        unsafe { directory_pointer(base, len).write(AtomicPtr::new(ptr::null_mut())) };
     }
     base
 }
 
-/// Reclaims a segment allocated by `new_segment`.
+/// Reclaims a block allocated by `new_block`.
 ///
-/// SAFETY: `base` must come from `new_segment(segment)`, must not be in use by anyone else, and
+/// SAFETY: `base` must come from `new_block(len, first)`, must not be in use by anyone else, and
 /// must not be used afterwards.
-unsafe fn free_segment(base: *mut Hot, segment: usize) {
-    let (layout, _) = segment_layout(segment);
-    for offset in 0..segment_len(segment) {
-        // SAFETY: each half was initialised by `new_segment` and is dropped once. `Key` and
+unsafe fn free_block(base: *mut Hot, len: usize, first: bool) {
+    let (layout, _) = block_layout(len, first);
+    for offset in 0..len {
+        // SAFETY: each half was initialised by `new_block` and is dropped once. `Key` and
         // `Record` are `Copy`: the `MaybeUninit` contents need no drop; the halves' own fields
         // (loom's cells and atomics, the leak tracker) do.
         unsafe {
             std::ptr::drop_in_place(base.add(offset));
-            std::ptr::drop_in_place(cold(base, segment, offset));
+            std::ptr::drop_in_place(cold(base, len, offset));
         }
     }
-    if segment == 0 {
-        // SAFETY: initialised by `new_segment(0)`, dropped once (the directory it points to, if
-        // any, is the list's to free).
-        unsafe { std::ptr::drop_in_place(directory_pointer(base)) };
+    if first {
+        // SAFETY: initialised by `new_block(len, true)`, dropped once (the directory it points
+        // to, if any, is the list's to free).
+        unsafe { std::ptr::drop_in_place(directory_pointer(base, len)) };
     }
-    // SAFETY: allocated by `new_segment` with this layout.
+    // SAFETY: allocated by `new_block` with this layout.
     unsafe { alloc::dealloc(base.cast::<u8>(), layout) };
 }
 
@@ -637,8 +720,8 @@ impl<O: Orderings> Drop for RecordList<O> {
         if first.is_null() {
             return;
         }
-        // SAFETY: `first` is the live first segment.
-        let pointer = unsafe { &*directory_pointer(first) };
+        // SAFETY: `first` is the live first block, of `first_len` slots.
+        let pointer = unsafe { &*directory_pointer(first, self.first_len) };
         // Relaxed: as above.
         let directory = pointer.load(Ordering::Relaxed);
         if !directory.is_null() {
@@ -648,14 +731,14 @@ impl<O: Orderings> Drop for RecordList<O> {
                 // Relaxed: as above.
                 let base = entry.load(Ordering::Relaxed);
                 if !base.is_null() {
-                    // SAFETY: installed by `install` from `new_segment(index + 1)`, and nothing
-                    // can use it after the list is dropped.
-                    unsafe { free_segment(base, index + 1) };
+                    // SAFETY: installed by `install` from `new_block(segment_len(index + 1),
+                    // false)`, and nothing can use it after the list is dropped.
+                    unsafe { free_block(base, segment_len(index + 1), false) };
                 }
             }
         }
-        // SAFETY: installed by `install` from `new_segment(0)`, not used again.
-        unsafe { free_segment(first, 0) };
+        // SAFETY: installed by `install` from `new_block(first_len, true)`, not used again.
+        unsafe { free_block(first, self.first_len, true) };
     }
 }
 
@@ -708,20 +791,20 @@ mod tests {
         assert_eq!(size_of::<Record>(), 128);
         // The first segment: 4 hot halves, 4 records, the directory pointer, 648 bytes.
         assert_eq!(
-            segment_layout(0),
+            block_layout(4, true),
             (Layout::from_size_align(648, 8).unwrap(), 128)
         );
-        assert_eq!(directory_offset() + 8, 648);
+        assert_eq!(directory_offset(4) + 8, 648);
         assert_eq!(
-            segment_layout(1),
+            block_layout(8, false),
             (Layout::from_size_align(1280, 8).unwrap(), 256)
         );
-        for segment in 0..20 {
-            assert_eq!(
-                cold_offset(segment),
-                segment_layout(segment).1,
-                "segment {segment}"
-            );
+        // A sealed first block of any length: the directory pointer is its last word.
+        for len in (1..70).chain([1000, 4097]) {
+            let (layout, cold) = block_layout(len, true);
+            assert_eq!(cold_offset(len), cold, "len {len}");
+            assert_eq!(directory_offset(len) + 8, layout.size(), "len {len}");
+            assert_eq!(block_layout(len, false).1, cold, "len {len}");
         }
     }
 
@@ -736,5 +819,66 @@ mod tests {
         list.for_each(&mut |r| seen.push(r.position.x as usize));
         assert_eq!(seen, (0..100).collect::<Vec<_>>());
         assert_eq!(list.published(), 100);
+    }
+
+    fn record(i: usize) -> Record {
+        Record::new(Vec3::splat(i as f32), Vec3::Z, Vec3::ONE, 1.0)
+    }
+
+    fn positions(list: &RecordList<Minimal>) -> Vec<usize> {
+        let mut seen = Vec::new();
+        list.for_each(&mut |r| seen.push(r.position.x as usize));
+        seen
+    }
+
+    #[test]
+    fn a_grown_list_is_sealed_into_one_block_and_grows_on_after_it() {
+        let mut list = RecordList::<Minimal>::new();
+        for i in 0..100 {
+            list.push(record(i)).unwrap();
+        }
+        // Segments of 4, 8, 16, 32 and 64 slots: 124 allocated, 24 unused > 100 / 16.
+        assert_eq!(list.allocated(), 124);
+        assert_eq!(list.compact(), 100);
+        assert_eq!((list.first_len, list.allocated()), (100, 100));
+        assert_eq!(positions(&list), (0..100).collect::<Vec<_>>());
+        // Sealed: a second close copies nothing.
+        let first = list.first.load(Ordering::Relaxed);
+        assert_eq!(list.compact(), 100);
+        assert_eq!(list.first.load(Ordering::Relaxed), first);
+        // Later inserts open segments of 8, 16, ... after the block, and are found in order.
+        for i in 100..105 {
+            assert_eq!(list.push(record(i)).unwrap(), i);
+        }
+        assert_eq!(list.allocated(), 108);
+        assert_eq!(positions(&list), (0..105).collect::<Vec<_>>());
+        // 3 unused slots are within a sixteenth of 105 records: the list stays as it is.
+        list.compact();
+        assert_eq!((list.first_len, list.allocated()), (100, 108));
+        for i in 105..120 {
+            list.push(record(i)).unwrap();
+        }
+        // 8 + 16 slots after the block, 4 unused: within 120 / 16, kept.
+        list.compact();
+        assert_eq!((list.first_len, list.allocated()), (100, 124));
+        assert_eq!(positions(&list), (0..120).collect::<Vec<_>>());
+    }
+
+    #[test]
+    fn a_list_within_its_first_segment_is_never_rebuilt() {
+        let mut list = RecordList::<Minimal>::new();
+        list.push(record(7)).unwrap();
+        let first = list.first.load(Ordering::Relaxed);
+        // Three unused slots of four, but nothing past the first block: no copy.
+        assert_eq!(list.compact(), 1);
+        assert_eq!(list.first.load(Ordering::Relaxed), first);
+        assert_eq!((list.first_len, list.allocated()), (4, 4));
+        // Five records: segments of 4 and 8, 7 unused: rebuilt at five.
+        for i in 0..4 {
+            list.push(record(i)).unwrap();
+        }
+        assert_eq!(list.compact(), 5);
+        assert_eq!((list.first_len, list.allocated()), (5, 5));
+        assert_eq!(positions(&list), vec![7, 0, 1, 2, 3]);
     }
 }

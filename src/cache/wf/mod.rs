@@ -64,11 +64,14 @@
 //!
 //! **Memory** is reclaimed only with `&mut` access: nothing is ever unlinked or freed while the
 //! cache is shared, so no reader can meet freed memory and no epoch scheme is needed. When a frame
-//! in which records were removed closes ([`IrradianceCache::end_frame`]), and after a removal
-//! between frames ([`IrradianceCache::remove`]), every list holding a removed record is rebuilt
-//! from its live records and every subtree left with none is freed (its bit cleared: the only
-//! place a mask bit is ever cleared). A cache that removes what it inserts, frame after frame,
-//! holds memory bounded by its live records and the tree over them.
+//! in which records were stored or removed closes ([`IrradianceCache::end_frame`]), and after a
+//! removal between frames ([`IrradianceCache::remove`]), every list holding a removed record, and
+//! every list that has outgrown its first block with more than a sixteenth of its slots unused,
+//! is rebuilt as one block of its live records (`list.rs`, 5), and every subtree left with none is
+//! freed (its bit cleared: the only place a mask bit is ever cleared). A cache that removes what
+//! it inserts, frame after frame, holds memory bounded by its live records and the tree over
+//! them; between frames a list's unused slots are at most a sixteenth of its records, past a
+//! first segment of four.
 
 mod list;
 pub(crate) mod orderings;
@@ -117,8 +120,8 @@ struct Node<O: Orderings> {
     /// Bit `o` set once `children[o]` is published and its publisher, or an insert that walked
     /// into it, has said so.
     occupied: AtomicU8,
-    /// The list's head and first segment pointer. With the mask, the 24 bytes a walk reads of
-    /// every node it visits; a leaf costs no more.
+    /// The list's head, first block pointer and first block length. With the mask, the 32 bytes
+    /// a walk reads of every node it visits; a leaf costs no more.
     records: RecordList<O>,
     /// Null, or a child published by a Release compare-and-swap and never changed again while the
     /// tree is shared (`reclaim`, with `&mut`, unlinks an emptied one). Read only where the mask
@@ -476,8 +479,10 @@ impl<O: Orderings> WaitFree<O> {
         }
     }
 
-    /// Reclaims what removals left (`&mut`: no handle exists): rebuilds every list that holds a
-    /// removed record from its live ones and frees every subtree left with no record.
+    /// Reclaims what removals and growth left (`&mut`: no handle exists): rebuilds every list
+    /// that holds a removed record, or has outgrown its first block with too many unused slots,
+    /// as one block of its live records (`list.rs`, 5), and frees every subtree left with no
+    /// record.
     fn reclaim(&mut self) {
         /// Compacts `node`'s subtree; true when it holds no record and no child any more.
         fn prune<O: Orderings>(node: &mut Node<O>) -> bool {
@@ -509,10 +514,18 @@ impl<O: Orderings> WaitFree<O> {
         prune(&mut self.root);
     }
 
-    /// Slots reserved in every list, live or not: what the lists' memory is made of.
+    /// Slots reserved in every list, live or not.
     pub fn reserved_slots(&mut self) -> usize {
         let mut slots = 0;
         self.for_each_node(&mut |node| slots += node.records.reserved());
+        slots
+    }
+
+    /// Slots allocated in every list, reserved or not: what the lists' memory is made of (a
+    /// frame's close rebuilds a list whose unused slots grew too many, `list.rs`, 5).
+    pub fn allocated_slots(&mut self) -> usize {
+        let mut slots = 0;
+        self.for_each_node(&mut |node| slots += node.records.allocated());
         slots
     }
 
@@ -595,7 +608,8 @@ impl<O: Orderings> IrradianceCache for WaitFree<O> {
 
     fn end_frame(&mut self) -> FrameReport {
         let report = self.ledger.close_frame(&mut self.stats).1;
-        if report.workers.removed > 0 {
+        // Only a frame that stored or removed a record can leave a list to rebuild.
+        if report.workers.removed > 0 || report.workers.stored > 0 {
             self.reclaim();
         }
         report
@@ -703,9 +717,9 @@ mod tests {
     use std::mem::size_of;
 
     /// The leak tracker ([`crate::sync::Tracked`]) costs nothing outside loom: a node is its
-    /// occupancy mask, its list (head and first segment pointer) and its eight child pointers, 88
-    /// bytes on 64-bit targets, with what every visit reads (mask, head, first segment) in its
-    /// first 24. Not aligned to a cache line: an aligned layout, through glibc's `memalign`,
+    /// occupancy mask, its list (head, first block pointer and length) and its eight child
+    /// pointers, 96 bytes on 64-bit targets, with what every visit reads (mask, head, first
+    /// block) in its first 32. Not aligned to a cache line: an aligned layout, through glibc's `memalign`,
     /// spreads nodes out (`docs/tried-and-dropped.md`).
     #[test]
     fn a_node_is_its_mask_its_list_and_its_children() {
@@ -716,11 +730,11 @@ mod tests {
         );
         #[cfg(target_pointer_width = "64")]
         {
-            assert_eq!(size_of::<Node<Minimal>>(), 88);
+            assert_eq!(size_of::<Node<Minimal>>(), 96);
             assert_eq!(offset_of!(Node<Minimal>, occupied), 0);
             assert_eq!(offset_of!(Node<Minimal>, records), 8);
-            assert_eq!(8 + RecordList::<Minimal>::HOT_FIELDS_END, 24);
-            assert_eq!(offset_of!(Node<Minimal>, children), 24);
+            assert_eq!(8 + RecordList::<Minimal>::HOT_FIELDS_END, 32);
+            assert_eq!(offset_of!(Node<Minimal>, children), 32);
         }
     }
 
