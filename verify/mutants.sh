@@ -15,6 +15,9 @@
 #                                                            that deterministic frames changed)
 #   bash verify/mutants.sh cache-work                       (the lines of src/cache/*.rs that
 #                                                            counting removal's work changed)
+#   bash verify/mutants.sh wf-compact                       (the lines of src/cache/wf that the
+#                                                            frame's close rebuilding grown lists
+#                                                            as one block changed)
 #   bash verify/mutants.sh render-tiles|render-distributed  (the renderer's tile loop and work
 #                                                            source; its MPI exchange, with the
 #                                                            mpi feature: needs OpenMPI, as CI)
@@ -149,6 +152,9 @@ work_base=ac128b0
 deterministic_base=b4ee339
 # The commit before the command line's bounds (issue 44): bounds mutates the lines changed since.
 bounds_base=83693a4
+# The commit before grown lists were rebuilt as one block (issue 42): wf-compact mutates the lines
+# changed since.
+compact_base=9e7c548
 # diff_of SCOPE: the --in-diff options of a *-removal scope (the diff is kept beside its results).
 diff_of() {
     local scope=$1 out="$root/results/mutants/$1"
@@ -159,6 +165,7 @@ diff_of() {
         cache-work) git diff "$work_base" -- 'src/cache/*.rs' > "$out/diff.patch" ;;
         deterministic) git diff "$deterministic_base" -- src/cache src/ic > "$out/diff.patch" ;;
         bounds) git diff "$bounds_base" -- src/cache > "$out/diff.patch" ;;
+        wf-compact) git diff "$compact_base" -- src/cache/wf > "$out/diff.patch" ;;
         *) return 0 ;;
     esac
     echo --in-diff "$out/diff.patch"
@@ -172,7 +179,7 @@ filter_of() {
         wf) echo 'src/cache/wf/**' ;;
         cache) echo 'src/cache/*.rs' ;;
         wf-lookup) echo 'src/cache/wf/**' ;;
-        wf-removal) echo 'src/cache/wf/**' ;;
+        wf-removal | wf-compact) echo 'src/cache/wf/**' ;;
         cache-lookup) echo 'src/cache/{octree,sequential}.rs' ;;
         cache-removal | cache-work) echo 'src/cache/*.rs' ;;
         deterministic) echo 'src/**' ;;
@@ -221,6 +228,15 @@ run_scope() {
             # through the wf scope's stages.
             stage wf-removal yes -f 'src/cache/wf/**' --re "$wf_removal_re" --features loom -- --test loom_wf --test loom_orderings --test loom_leaks
             stage wf-removal no -f 'src/cache/wf/**' --re "$wf_removal_re" -- "${real_thread_suites[@]}"
+            ;;
+        wf-compact)
+            # The lines of src/cache/wf that the rebuild of grown lists changed (the first block's
+            # length, the rule, the handle's notes, the close): the unit tests that pin the rule
+            # first, then the wf scope's stages, with the memory page's check last.
+            local f=(-f 'src/cache/wf/**' "${d[@]}")
+            stage "$scope" yes "${f[@]}" -- --lib
+            stage "$scope" no "${f[@]}" --features loom -- --test loom_wf --test loom_orderings --test loom_leaks
+            stage "$scope" no "${f[@]}" -- "${real_thread_suites[@]}" --test memory
             ;;
         cache)
             # Every stage builds the core package alone (cargo-mutants tests the package it

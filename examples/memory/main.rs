@@ -309,8 +309,8 @@ fn page(results: &[Size], quick: bool) -> String {
          checked against each cache's `stats()` (records and nodes equal); the sizes are the \
          documented layouts (WF node {WF_NODE} B, WF slot {WF_HOT} + {} B, segments of 4, 8, 16, \
          ... slots, a {WF_DIRECTORY}-byte directory once a list outgrows its first segment, and \
-         at the frame's close a list past its first segment with more than a sixteenth unused \
-         rebuilt as one block of its length, without a directory; the \
+         at the frame's close a list past its second segment with more than a sixteenth unused \
+         rebuilt as one block of its length and a sixteenth, without a directory; the \
          arena octree's node {ARENA_NODE} B and `Vec`s doubling from 4). *records* and *keys* \
          are N x {} and N x {}; *slot extra* WF's state byte and padding; *spare* capacity \
          allocated and unused (WF: unreserved slots of allocated segments; arena: `Vec` capacity \
@@ -459,9 +459,10 @@ fn where_wf_bytes_go(p: &mut String, size: &Size) {
          directories; the rest is *spare*: slots of allocated blocks that no record uses. During \
          a frame a list of `len` records holds segments of 4, 8, 16, ... slots up to the one \
          `len` reaches, so after its last doubling up to half its slots are empty. When the \
-         frame closes, a list past its first segment with more than a sixteenth of its slots \
-         unused is rebuilt as one block of `len` slots (`src/cache/wf/list.rs`, 5). The lists \
-         after the close, by segments held (*one block*: rebuilt):
+         frame closes, a list that opened a third segment, with more than a sixteenth of its \
+         slots unused, is rebuilt as one block of `len` slots and a sixteenth \
+         (`src/cache/wf/list.rs`, 5). The lists after the close, by segments held (*one block*: \
+         rebuilt):
 ",
         std::mem::size_of::<Record>()
     )
@@ -474,7 +475,10 @@ fn where_wf_bytes_go(p: &mut String, size: &Size) {
     writeln!(p, "|---:|---:|---:|---:|---:|---:|").unwrap();
     for &(segments, lists, records, spare) in &size.by_segments {
         let (segments, slots) = if segments == 0 {
-            ("one block".to_string(), records.to_string())
+            (
+                "one block".to_string(),
+                (records + spare / WF_SLOT as u64).to_string(),
+            )
         } else {
             (
                 segments.to_string(),

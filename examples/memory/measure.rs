@@ -277,21 +277,22 @@ pub const ARENA_NODE: usize =
     (size_of::<[u32; 8]>() + 1 + 2 * size_of::<Vec<u8>>()).next_multiple_of(align_of::<usize>());
 
 /// The slots a WF list of `len` records holds once the frame that filled it closed: the segments
-/// it grew, unless more than a sixteenth of them are unused past the first segment, when the
-/// frame's close rebuilt it as one block of `len` slots (`list.rs`, 5).
+/// it grew, unless it opened two or more past its first segment with more than a sixteenth of
+/// them unused, when the frame's close rebuilt it as one block of `len` slots and a sixteenth
+/// (`list.rs`, 5).
 pub fn wf_capacity(len: u64) -> u64 {
-    let grown = wf_grown_capacity(len);
     if wf_rebuilt(len) {
-        len
+        len + len / WF_SPARE_DIVISOR
     } else {
-        grown
+        wf_grown_capacity(len)
     }
 }
 
 /// Whether the frame's close rebuilt a WF list of `len` records, grown in that frame, as one block.
 pub fn wf_rebuilt(len: u64) -> bool {
     let grown = wf_grown_capacity(len);
-    grown > WF_FIRST_SEGMENT && (grown - len) * WF_SPARE_DIVISOR > len
+    // Segments of 4, 8 and 16: the second past the first segment opened.
+    grown >= WF_FIRST_SEGMENT * 7 && (grown - len) * WF_SPARE_DIVISOR > len
 }
 
 /// The slots a WF list of `len` records has allocated within a frame: whole segments of 4, 8,
@@ -520,8 +521,8 @@ fn capacity_exact(len: u64) -> u64 {
 /// The policies the page compares, the built one first.
 pub const POLICIES: [Policy; 6] = [
     Policy {
-        name: "as built: segments of 4, 8, 16, ... slots; rebuilt as one block at the frame's \
-               close past a sixteenth unused",
+        name: "as built: segments of 4, 8, 16, ... slots; rebuilt at the frame's close past a \
+               second segment and a sixteenth unused, as one block and a sixteenth",
         capacity: wf_capacity,
     },
     Policy {

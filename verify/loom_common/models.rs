@@ -158,21 +158,22 @@ pub fn a_segment_grows_while_another_thread_inserts_and_a_third_reads<O: Orderin
     assert_eq!(list.published(), 3);
 }
 
-/// A list rebuilt as one block at the frame's close grows on in the next frame. Three records in
-/// the root's list fill a first segment of two and one slot of the next (four): three of six slots
-/// unused, so the close rebuilds the list as one block of three. In the next frame one append
-/// installs the directory and the first segment after that block (slot 3) while another thread
-/// reads: the reader sees every record sealed before the frame, whole, and sees the append whole
-/// or not at all. (Two appends racing for a directory and a segment are
-/// `two_inserts_race_to_install_one_segment`; the block's length changes only where the directory
-/// pointer lies.) A later append (slot 4) lands in the same segment; the next close rebuilds the
-/// list again, at five slots, and loom's leak check sees every block the rebuilds replaced freed.
+/// A list rebuilt as one block at the frame's close grows on in the next frame. Seven records in
+/// the root's list fill segments of two and four slots and open a third (eight): the handle notes
+/// the list, and the close finds seven of fourteen slots unused and rebuilds it as one block of
+/// seven. In the next frame one append installs the directory and the first segment after that
+/// block (slot 7) while another thread reads: the reader sees every record sealed before the
+/// frame, whole, and the append whole or not at all. (Two appends racing for a directory and a
+/// segment are `two_inserts_race_to_install_one_segment`; the block's length changes only where
+/// the directory pointer lies.) A later append (slot 8) lands in the same segment; one segment past
+/// the block is kept at the next close, and loom's leak check sees every block the rebuild
+/// replaced freed.
 pub fn a_sealed_list_grows_while_another_thread_reads<O: Orderings>() {
     let mut cache = WaitFree::<O>::new(config(), CasFailure::Adopt);
     let mut h = cache.handle(WorkerId::new(0));
-    for k in 0..3 {
+    for k in 0..7 {
         assert!(matches!(
-            h.insert(root_record(k as f32 * 0.1)),
+            h.insert(root_record(k as f32 * 0.01)),
             Ok(Inserted::Stored(_))
         ));
     }
@@ -180,7 +181,7 @@ pub fn a_sealed_list_grows_while_another_thread_reads<O: Orderings>() {
     cache.end_frame();
     assert_eq!(
         (cache.allocated_slots(), cache.stats().records),
-        (3, 3),
+        (7, 7),
         "the close did not rebuild the list at its length"
     );
     let cache = Arc::new(cache);
@@ -189,7 +190,7 @@ pub fn a_sealed_list_grows_while_another_thread_reads<O: Orderings>() {
     let found = valid_at(&*cache, 2, Vec3::splat(2.0));
     assert!(found.iter().all(|r| r.is_intact()), "torn record");
     assert!(
-        found.len() >= 3,
+        found.len() >= 7,
         "a record sealed before the frame was missed: {} found",
         found.len()
     );
@@ -201,12 +202,12 @@ pub fn a_sealed_list_grows_while_another_thread_reads<O: Orderings>() {
     let mut cache = Arc::try_unwrap(cache).unwrap_or_else(|_| panic!("threads joined"));
     let found = valid_at(&cache, 0, Vec3::splat(2.0));
     let ids: HashSet<_> = found.iter().map(|r| r.id()).collect();
-    assert_eq!(ids.len(), 5, "records lost or duplicated after the block");
+    assert_eq!(ids.len(), 9, "records lost or duplicated after the block");
     cache.end_frame();
     assert_eq!(
         (cache.allocated_slots(), cache.stats().records),
-        (5, 5),
-        "the second close did not rebuild the list at its length"
+        (11, 9),
+        "one segment past the block is kept"
     );
 }
 

@@ -38,15 +38,18 @@
 //!    the cache has `&mut` access (`compact`, at the frame's close): the live records move to a
 //!    fresh list, and no reader can exist.
 //! 5. **One block at the frame's close.** Doubling segments leave up to half a long list's slots
-//!    unused, and a scan of a list past its first segment goes through the directory. So `compact`
-//!    also rebuilds a list that has outgrown its first block once its unused slots exceed a
-//!    sixteenth of its records ([`SPARE_DIVISOR`]): the records move, in slot order, into a
-//!    single first block of exactly their number. A list's first block therefore holds
-//!    `first_len` slots (`segment_len(0)`, or more once sealed), and later inserts open segments
-//!    of 8, 16, ... slots after it, as for any list. The rule bounds a list's unused slots at a
-//!    frame's close by a sixteenth of its records (past its first block), and each record is
-//!    copied a bounded number of times on average: a rebuilt list has no spare, and must grow by
-//!    at least a sixteenth of its length, or open a segment, before it is rebuilt again.
+//!    unused, and a scan past the first block goes through the directory. So `compact` also
+//!    rebuilds a list that has opened two or more segments past its first block once its unused
+//!    slots exceed a sixteenth of its records ([`SPARE_DIVISOR`]): the records move, in slot
+//!    order, into a single first block of their number plus a sixteenth. A list's first block
+//!    therefore holds `first_len` slots (`segment_len(0)`, or more once rebuilt), and later
+//!    inserts open segments of 8, 16, ... slots after it, as for any list. So between frames a
+//!    list's unused slots are at most a sixteenth of its records, or the seven of one segment of
+//!    eight. The rule keeps the copying bounded on average: a rebuilt list must grow by its own
+//!    sixteenth plus 8 records (filling its block and a first segment) before the next rebuild,
+//!    and a list growing by one record a frame, or spilling a record past its block, is not
+//!    copied again each frame (a rule without the second segment's condition rebuilt half the
+//!    lists a batch of inserts touched, each close: `docs/tried-and-dropped.md`).
 //!
 //! Every operation is wait-free: a push is one `fetch_add`, at most one segment compare-and-swap
 //! (never retried: if it fails, somebody else's segment is as good), one write and one store; a
@@ -277,6 +280,14 @@ impl<O: Orderings> RecordList<O> {
         }
     }
 
+    /// Whether slot `index` is the first of the second or a later segment past the first block:
+    /// the push that reserved it opened that segment (one push for each, as indices are unique),
+    /// and only such a push can bring the list to need a rebuild (module documentation, 5).
+    #[inline]
+    pub(crate) fn opens_segment(&self, index: usize) -> bool {
+        matches!(self.place(index), Some((segment, 0)) if segment > 1)
+    }
+
     /// How many slots block `segment` holds: the first block's `first_len`, or the segment's.
     #[inline(always)]
     fn block_len(&self, segment: usize) -> usize {
@@ -485,18 +496,21 @@ impl<O: Orderings> RecordList<O> {
     }
 
     /// Reclaims the slots of removed records and the spare slots of a grown list: if any reserved
-    /// slot is not live, or the list has outgrown its first block and its unused slots exceed its
-    /// live records over [`SPARE_DIVISOR`], moves the live records, in slot order, into the first
-    /// block of a fresh list that replaces this one (freeing every old block): exactly their
-    /// number of slots, at least `segment_len(0)`. Returns the live count. `&mut self`: no reader
-    /// or writer exists.
+    /// slot is not live, or the list has opened two segments past its first block and its unused
+    /// slots exceed its live records over [`SPARE_DIVISOR`], moves the live records, in slot
+    /// order, into the first block of a fresh list that replaces this one (freeing every old
+    /// block): their number of slots and a sixteenth, at least `segment_len(0)`. Returns the live
+    /// count. `&mut self`: no reader or writer exists.
     pub(crate) fn compact(&mut self) -> usize {
         let mut live = 0;
         self.visit(|_| true, &mut |_, _, _| live += 1);
         let allocated = self.allocated();
-        let grown = allocated > self.first_len && (allocated - live) * SPARE_DIVISOR > live;
+        let two_segments = allocated >= self.first_len + segment_len(1) + segment_len(2);
+        let grown = two_segments && (allocated - live) * SPARE_DIVISOR > live;
         if live < self.reserved() || grown {
-            let fresh = Self::with_first_len(live.max(segment_len(0)));
+            // Room for a sixteenth more: the next inserts land in the block, not in a segment
+            // whose opening would have the next close copy the list again.
+            let fresh = Self::with_first_len((live + live / SPARE_DIVISOR).max(segment_len(0)));
             self.visit(|_| true, &mut |_, key, record| {
                 // The fresh list's first block has room for every live record.
                 let pushed = fresh.push_keyed(*key, *record);
@@ -840,32 +854,38 @@ mod tests {
         // Segments of 4, 8, 16, 32 and 64 slots: 124 allocated, 24 unused > 100 / 16.
         assert_eq!(list.allocated(), 124);
         assert_eq!(list.compact(), 100);
-        assert_eq!((list.first_len, list.allocated()), (100, 100));
+        // One block of 100 and a sixteenth (6).
+        assert_eq!((list.first_len, list.allocated()), (106, 106));
         assert_eq!(positions(&list), (0..100).collect::<Vec<_>>());
-        // Sealed: a second close copies nothing.
+        // A second close copies nothing.
         let first = list.first.load(Ordering::Relaxed);
         assert_eq!(list.compact(), 100);
         assert_eq!(list.first.load(Ordering::Relaxed), first);
-        // Later inserts open segments of 8, 16, ... after the block, and are found in order.
-        for i in 100..105 {
+        // The next six land in the block; the seventh opens a segment of 8 after it, and the list
+        // is found in order.
+        for i in 100..107 {
             assert_eq!(list.push(record(i)).unwrap(), i);
+            assert!(!list.opens_segment(i));
         }
-        assert_eq!(list.allocated(), 108);
-        assert_eq!(positions(&list), (0..105).collect::<Vec<_>>());
-        // 3 unused slots are within a sixteenth of 105 records: the list stays as it is.
+        assert_eq!(list.allocated(), 114);
+        assert_eq!(positions(&list), (0..107).collect::<Vec<_>>());
+        // One segment past the block: kept, whatever its unused slots.
         list.compact();
-        assert_eq!((list.first_len, list.allocated()), (100, 108));
-        for i in 105..120 {
+        assert_eq!(list.first.load(Ordering::Relaxed), first);
+        assert_eq!((list.first_len, list.allocated()), (106, 114));
+        for i in 107..115 {
             list.push(record(i)).unwrap();
         }
-        // 8 + 16 slots after the block, 4 unused: within 120 / 16, kept.
-        list.compact();
-        assert_eq!((list.first_len, list.allocated()), (100, 124));
-        assert_eq!(positions(&list), (0..120).collect::<Vec<_>>());
+        // Slot 114 opened the second segment (16): 130 slots, 15 unused > 115 / 16: rebuilt.
+        assert!(list.opens_segment(114));
+        assert_eq!(list.allocated(), 130);
+        assert_eq!(list.compact(), 115);
+        assert_eq!((list.first_len, list.allocated()), (122, 122));
+        assert_eq!(positions(&list), (0..115).collect::<Vec<_>>());
     }
 
     #[test]
-    fn a_list_within_its_first_segment_is_never_rebuilt() {
+    fn a_list_is_rebuilt_only_past_a_second_segment() {
         let mut list = RecordList::<Minimal>::new();
         list.push(record(7)).unwrap();
         let first = list.first.load(Ordering::Relaxed);
@@ -873,12 +893,27 @@ mod tests {
         assert_eq!(list.compact(), 1);
         assert_eq!(list.first.load(Ordering::Relaxed), first);
         assert_eq!((list.first_len, list.allocated()), (4, 4));
-        // Five records: segments of 4 and 8, 7 unused: rebuilt at five.
+        // Five records: segments of 4 and 8, 7 unused, but one segment past the block: kept.
         for i in 0..4 {
             list.push(record(i)).unwrap();
         }
         assert_eq!(list.compact(), 5);
-        assert_eq!((list.first_len, list.allocated()), (5, 5));
-        assert_eq!(positions(&list), vec![7, 0, 1, 2, 3]);
+        assert_eq!((list.first_len, list.allocated()), (4, 12));
+        // Thirteen: segments of 4, 8 and 16, 15 unused > 13 / 16: rebuilt at 13 (no sixteenth).
+        for i in 4..12 {
+            list.push(record(i)).unwrap();
+        }
+        assert_eq!(list.compact(), 13);
+        assert_eq!((list.first_len, list.allocated()), (13, 13));
+        let mut want = vec![7];
+        want.extend(0..12);
+        assert_eq!(positions(&list), want);
+        // Twenty-eight in 4 + 8 + 16: nothing unused, kept with its segments.
+        let mut full = RecordList::<Minimal>::new();
+        for i in 0..28 {
+            full.push(record(i)).unwrap();
+        }
+        assert_eq!(full.compact(), 28);
+        assert_eq!((full.first_len, full.allocated()), (4, 28));
     }
 }

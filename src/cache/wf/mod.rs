@@ -64,20 +64,23 @@
 //!
 //! **Memory** is reclaimed only with `&mut` access: nothing is ever unlinked or freed while the
 //! cache is shared, so no reader can meet freed memory and no epoch scheme is needed. When a frame
-//! in which records were stored or removed closes ([`IrradianceCache::end_frame`]), and after a
-//! removal between frames ([`IrradianceCache::remove`]), every list holding a removed record, and
-//! every list that has outgrown its first block with more than a sixteenth of its slots unused,
-//! is rebuilt as one block of its live records (`list.rs`, 5), and every subtree left with none is
-//! freed (its bit cleared: the only place a mask bit is ever cleared). A cache that removes what
+//! closes ([`IrradianceCache::end_frame`]), every list that opened its second or a later segment
+//! past its first block in that frame (each handle notes the lists its inserts made grow so, so
+//! the close need not walk the tree) and has more than a sixteenth of its slots unused is rebuilt
+//! as one block of its records and a sixteenth (`list.rs`, 5). When
+//! records were removed in the frame, and after a removal between frames
+//! ([`IrradianceCache::remove`]), the close walks the whole tree instead: every list holding a
+//! removed record is rebuilt from its live records the same way, and every subtree left with none
+//! is freed (its bit cleared: the only place a mask bit is ever cleared). A cache that removes what
 //! it inserts, frame after frame, holds memory bounded by its live records and the tree over
-//! them; between frames a list's unused slots are at most a sixteenth of its records, past a
-//! first segment of four.
+//! them; between frames a list's unused slots are at most a sixteenth of its records, or the
+//! seven of one segment of eight, or the three of a first segment of four.
 
 mod list;
 pub(crate) mod orderings;
 
 use super::deterministic::Visibility;
-use super::frame::{collect_valid, HandleCore, Ledger, Work};
+use super::frame::{collect_valid, HandleCore, Ledger, Local, Work};
 use super::octree::{Cell, Octant, MAX_DEPTH};
 use super::{
     CacheConfig, CacheHandle, CacheStats, FrameReport, Inserted, IrradianceCache, Scheme,
@@ -233,7 +236,7 @@ pub struct WaitFree<O: Orderings = Minimal> {
     config: CacheConfig,
     policy: CasFailure,
     root: Box<Node<O>>,
-    ledger: Ledger<()>,
+    ledger: Ledger<Grown>,
     stats: CacheStats,
 }
 
@@ -263,8 +266,24 @@ impl WaitFree<Minimal> {
 /// How an insert ended inside the tree.
 enum Placed {
     Stored,
+    /// Stored in the first slot of the second or a later segment past the list's first block:
+    /// the list grew, and the frame's close may rebuild it (`list.rs`, 5).
+    Grew,
     Discarded,
     Full,
+}
+
+/// What a handle leaves for the frame's close: where each list it made grow lies (the record's
+/// position and depth: the close finds the node again by that path, with `&mut`). Only a list that
+/// opened a segment can have come to need a rebuild, so the close looks at these lists alone
+/// rather than walking the tree.
+#[derive(Debug, Default)]
+pub(crate) struct Grown(Vec<(Vec3, u32)>);
+
+impl Local for Grown {
+    fn take(&mut self) -> Self {
+        std::mem::take(self)
+    }
 }
 
 impl<O: Orderings> WaitFree<O> {
@@ -329,6 +348,7 @@ impl<O: Orderings> WaitFree<O> {
             };
         }
         match node.records.push_keyed(self.key(&record), record) {
+            Ok(index) if node.records.opens_segment(index) => (Placed::Grew, steps, lost),
             Ok(_) => (Placed::Stored, steps, lost),
             Err(list::ListFull) => (Placed::Full, steps, lost),
         }
@@ -529,6 +549,24 @@ impl<O: Orderings> WaitFree<O> {
         slots
     }
 
+    /// The node at `depth` on `position`'s path, if every node on the path exists (`&mut`: for
+    /// the frame's close; a removal between frames may have freed the path since).
+    fn node_on_path(&mut self, position: Vec3, depth: u32) -> Option<&mut Node<O>> {
+        let mut node = &mut *self.root;
+        let mut cell = self.config.root();
+        for _ in 1..=depth {
+            let octant = cell.octant(position);
+            cell = cell.child(octant);
+            // Relaxed: `&mut self` — every other thread's accesses happen-before this.
+            let child = node.children[octant.index()].load(Ordering::Relaxed);
+            // SAFETY: a published child is live until `reclaim` or `Drop` frees it (both with
+            // `&mut`, and the pointer is loaded after either), and `&mut self` makes this the only
+            // access.
+            node = unsafe { child.as_mut() }?;
+        }
+        Some(node)
+    }
+
     fn for_each_node(&mut self, f: &mut impl FnMut(&mut Node<O>)) {
         fn walk<O: Orderings>(node: &mut Node<O>, f: &mut impl FnMut(&mut Node<O>)) {
             f(node);
@@ -582,7 +620,7 @@ fn build_path<O: Orderings>(
 #[must_use = "a handle does nothing unless it is used"]
 pub struct WfHandle<'c, O: Orderings> {
     cache: &'c WaitFree<O>,
-    core: HandleCore<'c, ()>,
+    core: HandleCore<'c, Grown>,
 }
 
 impl<O: Orderings> IrradianceCache for WaitFree<O> {
@@ -602,15 +640,24 @@ impl<O: Orderings> IrradianceCache for WaitFree<O> {
     fn handle(&self, worker: WorkerId) -> WfHandle<'_, O> {
         WfHandle {
             cache: self,
-            core: HandleCore::new(&self.ledger, worker, ()),
+            core: HandleCore::new(&self.ledger, worker, Grown::default()),
         }
     }
 
     fn end_frame(&mut self) -> FrameReport {
-        let report = self.ledger.close_frame(&mut self.stats).1;
-        // Only a frame that stored or removed a record can leave a list to rebuild.
-        if report.workers.removed > 0 || report.workers.stored > 0 {
+        let (deposits, report) = self.ledger.close_frame(&mut self.stats);
+        if report.workers.removed > 0 {
+            // Every list and subtree the removals touched: the whole walk.
             self.reclaim();
+        } else {
+            // Only the lists that opened a segment this frame can need a rebuild.
+            for deposit in deposits {
+                for (position, depth) in deposit.local.0 {
+                    if let Some(node) = self.node_on_path(position, depth) {
+                        node.records.compact();
+                    }
+                }
+            }
         }
         report
     }
@@ -681,6 +728,11 @@ impl<O: Orderings> CacheHandle for WfHandle<'_, O> {
         self.core.stats.cas_failures += u64::from(lost);
         match placed {
             Placed::Stored => Ok(self.core.inserted(Inserted::Stored(record.id()), steps)),
+            Placed::Grew => {
+                let depth = self.cache.config.depth_of(&record);
+                self.core.local.0.push((record.position, depth));
+                Ok(self.core.inserted(Inserted::Stored(record.id()), steps))
+            }
             Placed::Discarded => Ok(self.core.inserted(Inserted::Discarded(record.id()), steps)),
             #[cfg(feature = "loom")]
             Placed::Full => Err(InsertError::ListFull),
@@ -767,7 +819,7 @@ mod tests {
             )
             .sealed(RecordId::new(WorkerId::new(0), 0, seq as u64));
             let (placed, _, _) = cache.place(r);
-            assert!(matches!(placed, Placed::Stored));
+            assert!(matches!(placed, Placed::Stored | Placed::Grew));
             tree.insert(r).unwrap();
         }
         let (mut hits, mut examined, mut tested) = (0, 0, 0);
