@@ -375,10 +375,9 @@ pub fn write(started: &Context, rows: &[Row], run: &Run) {
          Written by `cargo bench --bench records_held` (what it measures and how: \
          [docs/performance.md](../../docs/performance.md#records-held)).\n\n\
          - machine: **{cpu}**, {cores} logical CPUs; {rustc}; commit {commit}{dirty}\n\
-         - run: {} to {}; load average (1, 5, 15 min) {} at the start, {} at the end. The machine \
-         is shared: another job (a loom sweep, niced) kept a core busy during the run or part of it, so the \
-         nanoseconds carry its load; the ABBA ratios are what to read. The busiest other \
-         processes at the start: {}; at the end: {}.\n\
+         - run: {} to {}; load average (1, 5, 15 min) {} at the start, {} at the end. The \
+         busiest other processes at the start: {}; at the end: {}. The nanoseconds carry \
+         whatever load those put on the machine; the ABBA ratios are what to read.\n\
          - {} ABBA rounds of {} queries per pair, {} insert rounds of 1 024 records. Every figure \
          is from this CPU; do not compare it with another CPU's.\n\n",
         started.date,
