@@ -924,6 +924,29 @@ mod tests {
         assert_eq!((full.first_len, full.allocated()), (4, 28));
     }
 
+    /// A removed slot alone makes the close rebuild a list, even one within its first segment;
+    /// and unused slots of exactly a sixteenth of the records are not "more than a sixteenth".
+    #[test]
+    fn a_removal_alone_rebuilds_and_a_sixteenth_exactly_does_not() {
+        let mut list = RecordList::<Minimal>::new();
+        for i in 0..3 {
+            list.push(record(i)).unwrap();
+        }
+        let first = list.first.load(Ordering::Relaxed);
+        assert_eq!(list.remove_where(|r| r.position.x == 1.0), (1, 3));
+        assert_eq!(list.compact(), 2);
+        assert_ne!(list.first.load(Ordering::Relaxed), first, "not rebuilt");
+        assert_eq!((list.reserved(), list.allocated()), (2, 4));
+        assert_eq!(positions(&list), vec![0, 2]);
+        // A block of 10, then segments of 8 and 16: 34 slots, 32 records, 2 unused = 32 / 16.
+        let mut list = RecordList::<Minimal>::with_first_len(10);
+        for i in 0..32 {
+            list.push(record(i)).unwrap();
+        }
+        assert_eq!(list.compact(), 32);
+        assert_eq!((list.first_len, list.allocated()), (10, 34));
+    }
+
     /// Grows a list by `batches`, closing a frame (`compact`) after each, and checks the bounds
     /// the module documentation (5) states: after each close the list's unused slots are at most a
     /// sixteenth of its records, or fewer than one segment of eight, and its records are all there
