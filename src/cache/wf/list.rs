@@ -11,7 +11,8 @@
 //!    frees its own segment and uses the winner's. With `B = 4` and 50 segments the list has
 //!    `4 (2^50 - 1)` slots, about 4.5 * 10^15: at 160 bytes a slot, more than any 64-bit address
 //!    space holds (2^57 bytes with 5-level paging), so the list is bounded by memory, not by a
-//!    constant. The list itself holds only the head and the first segment's pointer; the other
+//!    constant. The list itself holds only the head, the first segment's pointer and its length
+//!    (item 5); the other
 //!    segments' pointers live in a directory, allocated (and installed with one compare-and-swap,
 //!    like a segment) when the list first outgrows its first segment, and found through a pointer
 //!    at the end of the first segment. So a node stays small however long its list may grow, and a
@@ -223,8 +224,8 @@ const fn cold_offset(len: usize) -> usize {
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct ListFull;
 
-/// An append-only, wait-free list of records. `repr(C)`: the head and the first segment pointer
-/// come first, where a node puts them on the cache line a walk reads.
+/// An append-only, wait-free list of records. `repr(C)`: the head, the first block's pointer and
+/// its length come first, where a node puts them on the cache line a walk reads.
 #[repr(C)]
 pub struct RecordList<O: Orderings> {
     /// Slots reserved so far (written or not).

@@ -1,7 +1,7 @@
 //! WF: the wait-free shared irradiance cache (paper §3.3, Listing 6), done right.
 //!
 //! Each node holds an occupancy mask, an append-only record list (`list.rs`) and eight child
-//! pointers. A lookup reads the mask and the list's head first (24 bytes), the keys of the list's
+//! pointers. A lookup reads the mask and the list's head first (32 bytes), the keys of the list's
 //! records next (32 bytes each), a record only when its key passes the query's prefilter, and a
 //! child pointer only when the mask says that child is published and its loose cell holds the
 //! query point.
