@@ -10,7 +10,7 @@ pub(crate) mod schedule;
 
 pub use export::{write_rad, Export, Source};
 pub use rtrace::{shared_ambient, RadianceBin, Rtrace, SharedAmbientRun};
-use schedule::{image_picks, matched, picks, sweep, SceneReferences};
+use schedule::{image_picks, image_sweep, matched, picks, sweep, SceneReferences};
 
 use crate::harness::metrics::{image_error, masked_mean, ImageError};
 use crate::harness::stats::{self, median};
@@ -41,8 +41,18 @@ pub struct RadianceConfig {
     pub sweep_rays_scales: Vec<f32>,
     /// The light-sample counts of the image-noise study, from 1.
     pub light_sweep: Vec<u32>,
-    /// Light samples of the converged reference.
+    /// Light samples of wfic's converged reference.
     pub converged_light_samples: u32,
+    /// Renders averaged into each converged reference: Radiance traces each pixel's ray this many
+    /// times with jittered sources, each at `-ad 4N`; wfic's converged image takes this many
+    /// times `4N` rays. One jittered ray a pixel leaves a small bright source's shadows noisy.
+    pub converged_passes: u32,
+    /// The light-sample counts the image sweep gives each setting of the cache sweep's fastest
+    /// front (the settings no faster setting beats on cache error): the candidates, beside the
+    /// matched, swept and light-study rows, for the time at equal image error.
+    pub image_light_samples: Vec<u32>,
+    /// At most this many settings of that front, spread evenly over it.
+    pub image_front: usize,
     /// The sweep's lower radius clamps in pixel footprints (wfic's `min_radius_pixels`).
     pub sweep_min_radius: Vec<f32>,
     /// The sweep's smoothings ([`RenderSettings::smoothing`]; the matched runs keep 1).
@@ -75,7 +85,10 @@ impl RadianceConfig {
             sweep_min_radius: vec![6.0, 12.0],
             sweep_smoothing: vec![1.0, 1.5],
             light_sweep: vec![1, 2, 4, 8, 16, 32, 64, 128],
-            converged_light_samples: 256,
+            converged_light_samples: 1024,
+            converged_passes: 8,
+            image_light_samples: vec![16, 32, 64, 128],
+            image_front: 6,
             reference_stride: 4,
             keep_work: false,
             repeats: 3,
@@ -94,6 +107,9 @@ impl RadianceConfig {
             sweep_min_radius: vec![6.0, 12.0],
             light_sweep: vec![8, 32],
             converged_light_samples: 128,
+            converged_passes: 2,
+            image_light_samples: vec![32],
+            image_front: 2,
             reference_stride: 2,
             repeats: 1,
             ..Self::full(scenes)
@@ -133,6 +149,9 @@ pub enum Role {
     },
     /// The light-sample study at the pick.
     LightSamples,
+    /// The image sweep: a setting of the cache sweep's fastest front with more light samples
+    /// (wfic, 2 threads).
+    ImageSweep,
     /// A renderer's converged image (no cache; Radiance with jittered, finely subdivided
     /// sources; wfic with many light samples): what its image error is measured against.
     Converged,
@@ -161,6 +180,7 @@ impl Role {
             Role::Sweep => "sweep",
             Role::PickTried => "pick-tried",
             Role::LightSamples => "light-samples",
+            Role::ImageSweep => "image-sweep",
             Role::Converged => "converged",
             Role::ImagePick {
                 reached: true,
@@ -387,6 +407,7 @@ pub fn compare_scene(
             runs.push(run);
         }
     }
+    image_sweep(config, scene, &refs, &swept, &mut runs)?;
     image_picks(config, scene, &refs, &mut runs)?;
     report::write_side_by_side(
         &out_dir.join(format!("{name}-side-by-side.png")),
@@ -435,6 +456,7 @@ mod tests {
             Role::Sweep,
             Role::PickTried,
             Role::LightSamples,
+            Role::ImageSweep,
             pick(true, None),
             pick(true, Some(1)),
             pick(true, Some(2)),
@@ -494,6 +516,10 @@ mod tests {
         assert_eq!(image_candidate(&runs, 0.06), Some((true, &runs[0])));
         assert_eq!(image_candidate(&runs, 0.09), Some((true, &runs[1])));
         assert_eq!(image_candidate(&runs, 0.01), Some((false, &runs[2])));
+        // The image sweep's rows are candidates too: a finer cache with more light samples.
+        let mut more = runs.clone();
+        more.push(one_run("wfic", r("image-sweep"), 2, 1.5, 0.02));
+        assert_eq!(image_candidate(&more, 0.025), Some((true, &more[5])));
         let pick = |reached, seconds, error| Run {
             role: Role::ImagePick {
                 reached,
@@ -508,6 +534,43 @@ mod tests {
             report::image_goal(&pick(false, 0.1, 0.08), &rad),
             "NO: error above"
         );
+    }
+
+    /// The image sweep's settings: those of the cache sweep that err less than every faster
+    /// one, spread over that front from the fastest to the most accurate.
+    #[test]
+    fn the_image_sweep_takes_the_fastest_front_spread_evenly() {
+        use super::schedule::fastest_front;
+        // (seconds, cache error), cheapest first as the sweep returns them; rays tell them apart.
+        let swept: Vec<(Run, RenderSettings)> = [
+            (0.1, 0.05),
+            (0.2, 0.06),
+            (0.3, 0.04),
+            (0.4, 0.04),
+            (0.5, 0.03),
+            (0.6, 0.02),
+            (0.7, 0.025),
+            (0.8, 0.01),
+        ]
+        .into_iter()
+        .enumerate()
+        .map(|(i, (t, e))| {
+            let run = one_run("wfic", r("sweep"), 2, t, e);
+            (run, RenderSettings::new(8, 8).rays_per_record(i as u32 + 1))
+        })
+        .collect();
+        let rays = |n| -> Vec<u32> {
+            fastest_front(&swept, n)
+                .iter()
+                .map(|s| s.rays_per_record)
+                .collect()
+        };
+        // The front: 0.05, 0.04 (the first of two), 0.03, 0.02, 0.01.
+        assert_eq!(rays(8), vec![1, 3, 5, 6, 8]);
+        assert_eq!(rays(3), vec![1, 5, 8]);
+        assert_eq!(rays(2), vec![1, 8]);
+        assert_eq!(rays(1), vec![8]);
+        assert!(rays(0).is_empty());
     }
 
     #[test]

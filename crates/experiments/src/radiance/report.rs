@@ -126,15 +126,19 @@ fn intro(config: &RadianceConfig, version: &str) -> String {
     );
     let (ar, l, n4) = (config.resolution, config.light_samples, 4 * n);
     let (converged, repeats) = (config.converged_light_samples, config.repeats.max(1));
+    let passes = config.converged_passes.max(1);
+    let nc = n4 * passes;
     format!(
         "Radiance: {version}.\n\n\
          How to read this page: docs/experiments.md#radiance-side-by-side.\n\n\
          {w} x {h}, one ray per pixel. Radiance: `rtrace -ab 1 -ad {n} -as 0 -aa {a} -ar {ar} \
          -av 0 0 0 -aw 0 -dj 0 -lw 1e-7 -n P -af FILE`; reference `-aa 0 -ad {n4}`. wfic: `wf`, \
          accuracy {a}, {n} rays per record, {l} light samples; reference `--scheme none` with \
-         {n4} rays. Converged reference: wfic `none`, {n4} rays, {converged} light samples, \
-         another seed. Errors on one pixel of every {k} x {k} block. Every row but the \
-         references is {repeats} render(s) of its setting.\n"
+         {n4} rays. Converged references: Radiance `-aa 0 -ad {n4} {}`, {passes} rays a \
+         pixel averaged; wfic `none`, {nc} rays, {converged} light \
+         samples, another seed. Errors on one pixel of every {k} x {k} block. Every row but the \
+         references is {repeats} render(s) of its setting.\n",
+        super::rtrace::CONVERGED_DIRECT
     )
 }
 
@@ -412,7 +416,12 @@ fn light_markdown(results: &[SceneComparison]) -> String {
 fn sweep_markdown(results: &[SceneComparison]) -> String {
     let rows: Vec<Row> = every_run(results)
         .into_iter()
-        .filter(|(_, run)| matches!(run.role, Role::Sweep | Role::Reference))
+        .filter(|(_, run)| {
+            matches!(
+                run.role,
+                Role::Sweep | Role::ImageSweep | Role::Reference | Role::Converged
+            )
+        })
         .collect();
     let cross = Table::new()
         .md("scene", |r: &SceneComparison| r.scene.clone())
@@ -437,7 +446,7 @@ fn sweep_markdown(results: &[SceneComparison]) -> String {
         .md("rtrace load + 1 ray (s)", |r| secs(r.radiance_load_seconds))
         .md("oconv (s)", |r| secs(r.oconv_seconds));
     format!(
-        "\n## The sweep (wfic, 2 threads) and the references\n\n{}\n\
+        "\n## The sweeps (wfic, 2 threads: the cache sweep at the matched light samples; the image sweep, its fastest front with more light samples), the references and the converged images\n\n{}\n\
          ## Cross-check and load times\n\n{}",
         runs_table().markdown(&rows),
         cross.markdown(results)

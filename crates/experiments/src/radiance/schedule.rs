@@ -48,11 +48,13 @@ impl SceneReferences {
             k * k
         );
         let (radiance, radiance_seconds) = rtrace.reference(n4)?;
+        let passes = config.converged_passes.max(1);
         say!(
             name,
-            "radiance converged: -aa 0 -ad {n4} -dt 0 -dc 1 -ds 0.02 -dj 0.9"
+            "radiance converged: -aa 0 -ad {n4} {}, {passes} rays a pixel",
+            super::rtrace::CONVERGED_DIRECT
         );
-        let (radiance_converged, radiance_converged_seconds) = rtrace.converged(n4)?;
+        let (radiance_converged, radiance_converged_seconds) = rtrace.converged(n4, passes)?;
         let original = match original {
             Some(o) => {
                 say!(name, "radiance reference of the original model");
@@ -73,12 +75,12 @@ impl SceneReferences {
         let own: Vec<(Image, f64)> = (0..repeats)
             .map(|i| render_reference_grid(scene, &camera, &s.clone().seed(seed_of(i)), rc, 2, k))
             .collect();
-        let light = config.converged_light_samples;
+        let (light, nc) = (config.converged_light_samples, n4 * passes);
         say!(
             name,
-            "converged reference: none, {n4} rays, {light} light samples"
+            "converged reference: none, {nc} rays, {light} light samples"
         );
-        let converged_settings = config.settings(config.accuracy, n4, light, 0xc0ffee);
+        let converged_settings = config.settings(config.accuracy, nc, light, 0xc0ffee);
         let wfic_seconds = own[0].1;
         let (converged, converged_seconds) =
             render_reference_grid(scene, &camera, &converged_settings, rc, 2, k);
@@ -97,7 +99,7 @@ impl SceneReferences {
             "wfic",
             Role::Converged,
             2,
-            (0.0, n4),
+            (0.0, nc),
             Some(&converged_settings),
         );
         runs.extend([
@@ -368,6 +370,54 @@ pub(super) fn picks(
     Ok(setting)
 }
 
+/// The settings of the cache sweep's fastest front (`swept` is cheapest first): each swept
+/// setting that errs less than every faster one; at most `n` of them, spread evenly over the
+/// front from the fastest to the most accurate.
+pub(super) fn fastest_front(swept: &[(Run, RenderSettings)], n: usize) -> Vec<&RenderSettings> {
+    let mut front = Vec::new();
+    let mut best = f64::INFINITY;
+    for (run, s) in swept {
+        if run.cache_error.rel_rmse < best {
+            best = run.cache_error.rel_rmse;
+            front.push(s);
+        }
+    }
+    let last = front.len().saturating_sub(1);
+    match n {
+        _ if front.len() <= n => front,
+        0 => Vec::new(),
+        1 => vec![front[last]],
+        _ => (0..n).map(|i| front[i * last / (n - 1)]).collect(),
+    }
+}
+
+/// The image sweep: each setting of the cache sweep's fastest front ([`fastest_front`]) with
+/// each of the config's image light-sample counts, at 2 threads, into `runs`. A finer cache with
+/// more light samples can reach an image error that neither alone does.
+pub(super) fn image_sweep(
+    config: &RadianceConfig,
+    scene: &Scene,
+    refs: &SceneReferences,
+    swept: &[(Run, RenderSettings)],
+    runs: &mut Vec<Run>,
+) -> Result<(), String> {
+    for s in fastest_front(swept, config.image_front) {
+        for &l in &config.image_light_samples {
+            let s = s.clone().light_samples(l);
+            let (run, _) = refs.wfic(scene, Role::ImageSweep, &s, 2)?;
+            say!(
+                scene.name(),
+                "image sweep {}: {:.3} s, image error {:.2}%",
+                report::wfic_setting(&run),
+                run.seconds,
+                100.0 * run.own_image_error.rel_rmse
+            );
+            runs.push(run);
+        }
+    }
+    Ok(())
+}
+
 /// wfic's settings of the measured row `run`.
 fn settings_of(config: &RadianceConfig, run: &Run) -> RenderSettings {
     let mut s = config.settings(run.accuracy, run.rays, run.light_samples, seed_of(0));
@@ -377,7 +427,7 @@ fn settings_of(config: &RadianceConfig, run: &Run) -> RenderSettings {
 }
 
 /// The cheapest measured wfic setting (its rows at 2 threads: the matched one, the sweep's over
-/// the cache's settings, the light study's over the light samples) whose image error against
+/// the cache's settings, the light study's over the light samples, the image sweep's) whose image error against
 /// wfic's converged image is at or below `target`, and `true`; when none is, the one of least
 /// image error, and `false`.
 pub(super) fn image_candidate(runs: &[Run], target: f64) -> Option<(bool, &Run)> {
@@ -385,7 +435,10 @@ pub(super) fn image_candidate(runs: &[Run], target: f64) -> Option<(bool, &Run)>
         runs.iter().filter(|r| {
             r.renderer == "wfic"
                 && r.workers == 2
-                && matches!(r.role, Role::Matched | Role::Sweep | Role::LightSamples)
+                && matches!(
+                    r.role,
+                    Role::Matched | Role::Sweep | Role::LightSamples | Role::ImageSweep
+                )
         })
     };
     let reached = candidates()
