@@ -28,6 +28,9 @@ pub(super) struct SceneReferences {
     /// Radiance's brute-force image of its own original model, when it runs.
     pub(super) original: Option<Image>,
     pub(super) wfic_own: Vec<Image>,
+    /// The light samples of `wfic_own`: a wfic row with others has no cache error (its direct
+    /// light differs from the reference's as well as its indirect).
+    pub(super) reference_light: u32,
     pub(super) converged: Image,
 }
 
@@ -91,6 +94,7 @@ impl SceneReferences {
             radiance,
             original: original.as_ref().map(|(img, _)| img.clone()),
             wfic_own: own.into_iter().map(|(img, _)| img).collect(),
+            reference_light: config.light_samples,
         };
         let radiance = Run::new("radiance", Role::Reference, 2, (0.0, n4), None);
         let wfic = Run::new("wfic", Role::Reference, 2, (0.0, n4), Some(&s));
@@ -128,7 +132,6 @@ impl SceneReferences {
             (ORIGINAL, Some(original)) => original,
             _ => &self.wfic_own[repeat],
         };
-        let cache_error = image_error(img, own, &self.mask);
         let own_converged = match run.renderer {
             "radiance" => Some(&self.radiance_converged),
             ORIGINAL => None,
@@ -137,6 +140,11 @@ impl SceneReferences {
         let nan = ImageError {
             rel_rmse: f64::NAN,
             mean_rel: f64::NAN,
+        };
+        let cache_error = if run.renderer == "wfic" && run.light_samples != self.reference_light {
+            nan
+        } else {
+            image_error(img, own, &self.mask)
         };
         Run {
             seconds,
@@ -486,4 +494,44 @@ pub(super) fn image_picks(
         runs.push(row);
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::Vec3;
+
+    /// A wfic row has a cache error only at its reference's light samples: at others its direct
+    /// light differs from the reference's too, and the difference is no cache's. Radiance's rows
+    /// always have one.
+    #[test]
+    fn a_cache_error_needs_the_references_light_samples() {
+        let flat = |v: f32| {
+            let mut img = Image::new(2, 2);
+            for (x, y) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
+                img.set(x, y, Vec3::splat(v));
+            }
+            img
+        };
+        let refs = SceneReferences {
+            mask: vec![true; 4],
+            radiance: flat(1.0),
+            radiance_converged: flat(1.0),
+            original: None,
+            wfic_own: vec![flat(1.0)],
+            reference_light: 8,
+            converged: flat(1.0),
+        };
+        let row = |renderer, light| {
+            let s = RenderSettings::new(2, 2).light_samples(light);
+            let run = Run::new(renderer, Role::Sweep, 2, (0.15, 512), Some(&s));
+            refs.measured(run, &flat(1.1), 0, 1.0)
+        };
+        let e = row("wfic", 8).cache_error.rel_rmse;
+        assert!((e - 0.1).abs() < 1e-5, "{e}");
+        assert!(row("wfic", 16).cache_error.rel_rmse.is_nan());
+        assert!((row("radiance", 16).cache_error.rel_rmse - 0.1).abs() < 1e-5);
+        // The image errors stay measured whatever the light samples.
+        assert!((row("wfic", 16).own_image_error.rel_rmse - 0.1).abs() < 1e-5);
+    }
 }
