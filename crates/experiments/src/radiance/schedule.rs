@@ -415,7 +415,7 @@ pub(super) fn image_sweep(
             let (run, _) = refs.wfic(scene, Role::ImageSweep, &s, 2)?;
             say!(
                 scene.name(),
-                "image sweep {}: {:.3} s, image error {:.2}%",
+                "image sweep {} L {l}: {:.3} s, image error {:.2}%",
                 report::wfic_setting(&run),
                 run.seconds,
                 100.0 * run.own_image_error.rel_rmse
