@@ -51,6 +51,8 @@ fi
 common=(--in-place --no-shuffle --minimum-test-timeout 20)
 real_thread_suites=(--lib --test agreement --test stress --test robustness --test leaks --test wf_api
     --test lookup_work --test removal --test removal_stress)
+# The same integration suites by name, for `targets`.
+real_thread_tests=(agreement stress robustness leaks wf_api lookup_work removal removal_stress)
 
 # `WFIC_MUTANTS_RESUME=1` keeps the scope's results and runs every stage again with `--iterate`,
 # on the mutants the earlier stages left alive only (after adding a test: the fast stage first,
@@ -213,10 +215,16 @@ run_scope() {
     case $scope in
         wf)
             # The unit tests first (seconds a mutant: they pin the list's rule, the mask and the
-            # frame protocol), then loom, then the real-thread suites with the memory page's check.
-            stage wf yes -f 'src/cache/wf/**' -- --lib
-            stage wf no -f 'src/cache/wf/**' --features loom -- --test loom_wf --test loom_orderings --test loom_leaks
-            stage wf no -f 'src/cache/wf/**' -- "${real_thread_suites[@]}" --test memory
+            # frame protocol), then loom's hand-written models, then the real-thread suites with
+            # the memory page's check, then the exhaustive client's CI subset (minutes a mutant:
+            # only for what every other suite left alive). As in the cache scope, the targets are
+            # named with `--cargo-arg`, so a mutant builds only the suites its stage runs (named
+            # after `--`, every test target of the package was built for each mutant: 15-100 s).
+            local f=(-f 'src/cache/wf/**' --no-default-features)
+            stage wf yes "${f[@]}" --cargo-arg=--lib
+            stage wf no "${f[@]}" --features loom $(targets loom_wf loom_orderings loom_leaks)
+            stage wf no "${f[@]}" --cargo-arg=--lib $(targets "${real_thread_tests[@]}" memory)
+            stage wf no "${f[@]}" --features loom $(targets loom_client)
             ;;
         wf-lookup)
             # The functions of src/cache/wf that the lean read path added or rewrote (the mask and
