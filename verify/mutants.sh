@@ -59,7 +59,8 @@ real_thread_tests=(agreement stress robustness leaks wf_api lookup_work removal 
 # so a new unit test kills its mutants in seconds).
 resume=${WFIC_MUTANTS_RESUME:-0}
 # `WFIC_MUTANTS_FROM=N` runs the scope's stages from the Nth on, over the results of those before
-# (kept in results/mutants/SCOPE): to go on after a stage failed to start.
+# (kept in results/mutants/SCOPE, with the last one's in mutants.out: a stage that failed to start
+# moved them to mutants.out.old), to go on after a stage failed to start.
 from=${WFIC_MUTANTS_FROM:-1}
 stage_no=0
 
@@ -96,6 +97,7 @@ stage() {
 # 60 s), as cargo-mutants sets it.
 workspace_baseline() {
     local t0 t1
+    cargo test --workspace --no-run "$@" >&2
     t0=$(date +%s)
     cargo test --workspace "$@" >&2 || { echo "the unmutated suite failed: cargo test --workspace $*" >&2; exit 1; }
     t1=$(date +%s)
@@ -240,7 +242,7 @@ run_scope() {
     esac
     local filter
     filter=$(filter_of "$scope")
-    [ "$resume" = 1 ] || rm -rf "$root/results/mutants/$scope"
+    [ "$resume" = 1 ] || [ "$from" -gt 1 ] || rm -rf "$root/results/mutants/$scope"
     mkdir -p "$root/results/mutants/$scope"
     local d
     # shellcheck disable=SC2207
