@@ -28,8 +28,14 @@ pub struct FrameResult {
     pub stats: FrameStats,
 }
 
+/// Whether a frame shows its progress: on a terminal, unless asked to be quiet (a log file or a
+/// pipe gets no bar).
+fn shows_progress(quiet: bool, terminal: bool) -> bool {
+    !quiet && terminal
+}
+
 fn progress_bar(tiles: usize, quiet: bool, label: &str) -> ProgressBar {
-    if quiet || !std::io::stderr().is_terminal() {
+    if !shows_progress(quiet, std::io::stderr().is_terminal()) {
         return ProgressBar::hidden();
     }
     let bar = ProgressBar::with_draw_target(Some(tiles as u64), ProgressDrawTarget::stderr());
@@ -274,6 +280,59 @@ mod tests {
             .expect_err("refused");
             assert_eq!(panic.downcast_ref::<String>().unwrap(), expected);
         }
+    }
+
+    #[test]
+    fn progress_shows_on_a_terminal_unless_quiet() {
+        assert!(shows_progress(false, true));
+        assert!(!shows_progress(true, true), "quiet");
+        assert!(!shows_progress(false, false), "not a terminal");
+        assert!(!shows_progress(true, false));
+    }
+
+    /// Frame `i` of an `n`-frame orbit is the scene seen from `i / n` turns; each frame reaches
+    /// the callback in order, and its statistics are returned.
+    #[test]
+    fn an_orbit_renders_frame_i_of_n_from_i_over_n_turns() {
+        let (scene, _, settings, config) = cornell();
+        let mut seen = Vec::new();
+        let stats = render_orbit(
+            &scene,
+            &settings,
+            &mut NoCache::new(config),
+            1,
+            2,
+            |i, f| seen.push((i, f.image.clone(), f.stats.rays)),
+        );
+        assert_eq!(seen.iter().map(|s| s.0).collect::<Vec<_>>(), [0, 1]);
+        assert_eq!(stats.len(), 2);
+        // (Images compared with `==`: a failed `assert_eq!` would print every pixel.)
+        assert!(
+            seen[0].1 != seen[1].1,
+            "the two frames see the box from opposite sides"
+        );
+        for (k, turns) in [0.0, 0.5].into_iter().enumerate() {
+            let camera = Camera::orbit(&scene, turns);
+            let want = render_reference(&scene, &camera, &settings, config, 1);
+            assert!(
+                seen[k].1 == want.image,
+                "frame {k} is seen from {turns} turns"
+            );
+            assert_eq!(stats[k].rays, seen[k].2, "frame {k}'s statistics");
+        }
+    }
+
+    /// Worker 0 removes what the selection takes, also when it is the only worker.
+    #[test]
+    fn one_worker_removes_what_the_selection_takes() {
+        let (scene, camera, settings, config) = cornell();
+        let mut cache = wfic::cache::Sequential::new(config);
+        render_frame(&scene, &camera, &settings, &mut cache, 1);
+        let held = cache.stats().records as u64;
+        assert!(held > 0);
+        let earlier = Selection::older_than(0);
+        let out = render_frame_removing(&scene, &camera, &settings, &mut cache, 1, Some(&earlier));
+        assert_eq!(out.stats.removed, held, "every record of the first frame");
     }
 
     /// A small, cheap Cornell box frame.

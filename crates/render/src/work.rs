@@ -333,6 +333,25 @@ mod tests {
     }
 
     #[test]
+    fn a_queue_counts_the_items_that_wait() {
+        let queue = Queue::new();
+        assert!(queue.is_empty());
+        queue.push(0..3);
+        assert_eq!(queue.len(), 3);
+        assert!(!queue.is_empty());
+        assert_eq!(queue.next_item(), Some(0));
+        assert_eq!(queue.len(), 2);
+    }
+
+    #[test]
+    fn a_tile_is_as_wide_as_asked_and_at_least_one_pixel() {
+        let settings = RenderSettings::new(5, 3);
+        assert_eq!(Tiles::sized(&settings, 4).size(), 4);
+        assert_eq!(Tiles::sized(&settings, 0).size(), 1);
+        assert_eq!(Tiles::sized(&settings, 0).count(), 15);
+    }
+
+    #[test]
     fn a_queue_blocks_until_fed_and_ends_when_closed() {
         let queue = Queue::new();
         let taken = std::thread::scope(|s| {
