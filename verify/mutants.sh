@@ -94,7 +94,8 @@ stage() {
 # test target named `render` in `wfic-render`"). Such a stage skips that baseline and runs its own:
 # `workspace_baseline CARGO-TEST-ARGS...` runs the suite unmutated, stops the scope if it fails,
 # and prints the options `--baseline=skip --timeout T`, T five times the suite's time (at least
-# 60 s), as cargo-mutants sets it.
+# 60 s), as cargo-mutants sets it. The suite is named with `--cargo-arg` (`targets`): named after
+# `--`, a mutant's build built every test target of the workspace (30 s a mutant for the MPI suite).
 workspace_baseline() {
     local t0 t1
     cargo test --workspace --no-run "$@" >&2
@@ -357,8 +358,7 @@ run_scope() {
             local b
             b=$(workspace_baseline --release --test render)
             # shellcheck disable=SC2086
-            stage "$scope" no "${f[@]}" --test-workspace true $b --cargo-arg=--release \
-                -- --test render
+            stage "$scope" no "${f[@]}" --test-workspace true $b --cargo-arg=--release $(targets render)
             ;;
         bounds)
             # The lines of src/cache the command line's bounds changed (the accuracy's bound as a
@@ -388,8 +388,7 @@ run_scope() {
             local b
             b=$(workspace_baseline --release --features mpi --test mpi)
             # shellcheck disable=SC2086
-            stage "$scope" no "${f[@]}" --test-workspace true $b --cargo-arg=--release \
-                -- --test mpi
+            stage "$scope" no "${f[@]}" --test-workspace true $b --cargo-arg=--release $(targets mpi)
             ;;
         *)
             echo "unknown scope $scope (wf, cache, ic, lincheck, render-tiles, render-distributed or all)" >&2
