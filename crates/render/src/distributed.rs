@@ -151,10 +151,7 @@ impl WireRecord {
     pub fn digest(records: &[WireRecord]) -> u64 {
         let mut h = Fnv::new();
         for r in records {
-            for x in r.fields {
-                h.write(u64::from(x.to_bits()));
-            }
-            h.write(u64::from(r.origin));
+            h.write_record(r);
         }
         h.finish()
     }
@@ -1182,6 +1179,60 @@ mod tests {
             WireRecord::digest(&[w, other]),
             WireRecord::digest(&[other, w])
         );
+    }
+
+    #[test]
+    fn a_record_keeps_its_id_across_the_wire() {
+        let id = RecordId::new(WorkerId::new(3), 0xabcd, 0x1234_5678);
+        let r = Record::new(Vec3::ONE, Vec3::Z, Vec3::ONE, 1.0).sealed(id);
+        let back = WireRecord::new(&r, 1).record_id();
+        assert_eq!(back, id);
+        assert_eq!(
+            (back.worker(), back.frame(), back.seq()),
+            (WorkerId::new(3), 0xabcd, 0x1234_5678)
+        );
+    }
+
+    /// `Fnv` is FNV-1a over each word's eight little-endian bytes.
+    #[test]
+    fn fnv_is_fnv_1a_over_each_words_bytes() {
+        let reference = |bytes: &[u8]| {
+            bytes.iter().fold(0xcbf2_9ce4_8422_2325_u64, |h, &b| {
+                (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3)
+            })
+        };
+        // The reference against FNV-1a's published 64-bit test vectors (Fowler, Noll and Vo).
+        assert_eq!(reference(b""), 0xcbf2_9ce4_8422_2325);
+        assert_eq!(reference(b"a"), 0xaf63_dc4c_8601_ec8c);
+        assert_eq!(reference(b"foobar"), 0x8594_4171_f739_67e8);
+        let words = [0x61, 0x0123_4567_89ab_cdef, u64::MAX, 0];
+        let mut h = Fnv::new();
+        for w in words {
+            h.write(w);
+        }
+        let bytes: Vec<u8> = words.iter().flat_map(|w| w.to_le_bytes()).collect();
+        assert_eq!(h.finish(), reference(&bytes));
+    }
+
+    /// The fingerprint is the same for the same frame and differs when a setting does.
+    #[test]
+    fn the_fingerprint_names_the_settings_and_tells_them_apart() {
+        let scene = crate::scenes::cornell().unwrap();
+        let camera = scene.camera();
+        let settings = RenderSettings::new(32, 24);
+        let exchange = Exchange::default();
+        let (line, print) = fingerprint(&scene, &camera, &settings, &exchange);
+        assert!(line.starts_with("scene cornell ("), "{line}");
+        assert!(line.contains("32x24"), "{line}");
+        assert_eq!(
+            fingerprint(&scene, &camera, &settings, &exchange),
+            (line.clone(), print)
+        );
+        let mut reseeded = settings.clone();
+        reseeded.seed = 7;
+        let (other_line, other) = fingerprint(&scene, &camera, &reseeded, &exchange);
+        assert_ne!(other_line, line);
+        assert_ne!(other, print);
     }
 
     #[test]
