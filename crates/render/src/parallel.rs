@@ -34,18 +34,21 @@ fn shows_progress(quiet: bool, terminal: bool) -> bool {
     !quiet && terminal
 }
 
+/// The frame's progress bar on stderr, or a hidden one where [`shows_progress`] says so. (The
+/// choice is that function's, tested; a bar drawn or not is seen only on a terminal.)
 fn progress_bar(tiles: usize, quiet: bool, label: &str) -> ProgressBar {
-    if !shows_progress(quiet, std::io::stderr().is_terminal()) {
-        return ProgressBar::hidden();
+    if shows_progress(quiet, std::io::stderr().is_terminal()) {
+        let bar = ProgressBar::with_draw_target(Some(tiles as u64), ProgressDrawTarget::stderr());
+        if let Ok(style) =
+            ProgressStyle::with_template("{msg} [{elapsed_precise}] {wide_bar} {pos}/{len} tiles")
+        {
+            bar.set_style(style);
+        }
+        bar.set_message(label.to_owned());
+        bar
+    } else {
+        ProgressBar::hidden()
     }
-    let bar = ProgressBar::with_draw_target(Some(tiles as u64), ProgressDrawTarget::stderr());
-    if let Ok(style) =
-        ProgressStyle::with_template("{msg} [{elapsed_precise}] {wide_bar} {pos}/{len} tiles")
-    {
-        bar.set_style(style);
-    }
-    bar.set_message(label.to_owned());
-    bar
 }
 
 /// Renders one frame of `scene` seen by `camera` with `threads` workers (0 counts as 1) sharing
