@@ -768,6 +768,22 @@ mod tests {
     use crate::cache::CacheConfig;
     use std::mem::size_of;
 
+    /// A cache keeps the policy it was built with and shows it, with its orderings, when printed.
+    #[test]
+    fn a_cache_keeps_and_shows_its_policy_and_orderings() {
+        let config = CacheConfig::new(Vec3::ZERO, Vec3::splat(4.0), 0.3).unwrap();
+        for (cache, policy) in [
+            (WaitFree::discard(config), CasFailure::Discard),
+            (WaitFree::adopt(config), CasFailure::Adopt),
+        ] {
+            assert_eq!(cache.policy(), policy);
+            let shown = format!("{cache:?}");
+            assert!(shown.starts_with("WaitFree {"), "{shown}");
+            assert!(shown.contains(&format!("policy: {policy:?}")), "{shown}");
+            assert!(shown.contains(Minimal::NAME), "{shown}");
+        }
+    }
+
     /// The leak tracker ([`crate::sync::Tracked`]) costs nothing outside loom: a node is its
     /// occupancy mask, its list (head, first block pointer and length) and its eight child
     /// pointers, 96 bytes on 64-bit targets, with what every visit reads (mask, head, first
