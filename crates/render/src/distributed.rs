@@ -1236,6 +1236,35 @@ mod tests {
     }
 
     #[test]
+    fn an_exchange_out_of_its_ranges_is_refused_by_name() {
+        assert_eq!(Exchange::default().validate(), Ok(()));
+        let none = Exchange {
+            batch_records: 0,
+            ..Exchange::default()
+        };
+        let slow = Exchange {
+            batch_ms: 3_600_001,
+            ..Exchange::default()
+        };
+        assert!(none
+            .validate()
+            .unwrap_err()
+            .to_string()
+            .contains("batch_records 0"));
+        assert!(slow
+            .validate()
+            .unwrap_err()
+            .to_string()
+            .contains("batch_ms 3600001"));
+        let panic = std::panic::catch_unwind(|| none.assert_valid()).expect_err("refused");
+        let message = panic.downcast_ref::<String>().unwrap();
+        assert!(
+            message.starts_with("invalid exchange: batch_records 0"),
+            "{message}"
+        );
+    }
+
+    #[test]
     fn tiles_go_to_the_ranks_short_of_work_in_rank_order() {
         let mut plan = TilePlan::new(10);
         // Both ranks empty: rank 0 (2 threads: wants 4) gets 0..4, rank 1 (1 thread) 4..6.
