@@ -1264,6 +1264,85 @@ mod tests {
         );
     }
 
+    /// A cache in its third frame (frame 2), holding two records of frame 0 near (1, 1, 1).
+    fn cache_in_frame_2() -> WaitFree<Minimal> {
+        let config = wfic::cache::CacheConfig::new(Vec3::ZERO, Vec3::splat(4.0), 0.3).unwrap();
+        let mut cache = WaitFree::<Minimal>::new(config, CasFailure::Adopt);
+        cache.frame().run(1, |h, _| {
+            for x in [1.0, 1.05] {
+                h.insert(at(x)).unwrap();
+            }
+        });
+        cache.frame().run(1, |_, _| ());
+        cache
+    }
+
+    fn at(x: f32) -> Record {
+        Record::new(Vec3::new(x, 1.0, 1.0), Vec3::Z, Vec3::ONE, 0.5)
+    }
+
+    /// What a wrapping handle must pass through to the cache's own: its worker and frame, the
+    /// visible lookup, the valid records, the statistics and the removal's count.
+    fn passes_through(h: &mut impl CacheHandle, worker: WorkerId) {
+        let p = Vec3::ONE;
+        assert_eq!(h.worker(), worker);
+        assert_eq!(h.frame(), 2);
+        let visible = wfic::cache::Visibility::new(2, worker);
+        assert!(
+            h.lookup_visible(p, Vec3::Z, visible).is_some(),
+            "frame 0's records are visible"
+        );
+        let mut out = Vec::new();
+        h.valid_records(p, Vec3::Z, &mut out);
+        assert_eq!(out.len(), 2);
+        assert!(h.stats().lookups > 0, "the lookup was counted");
+        assert_eq!(
+            h.remove(&Selection::older_than(0)),
+            2,
+            "frame 0's two records"
+        );
+    }
+
+    #[test]
+    fn the_sending_handle_passes_calls_through_and_says_when_a_batch_is_full() {
+        let mut cache = cache_in_frame_2();
+        cache.frame().run(1, |h, worker| {
+            let (events, heard) = mpsc::channel();
+            let outbox = Mutex::new(Vec::new());
+            let mut sending = Sending {
+                inner: h,
+                outbox: &outbox,
+                batch: 2,
+                events,
+            };
+            passes_through(&mut sending, worker);
+            sending.insert(at(3.0)).unwrap();
+            assert!(heard.try_recv().is_err(), "one record: no batch yet");
+            sending.insert(at(2.0)).unwrap();
+            assert_eq!(heard.try_recv(), Ok(Event::Batch));
+            sending.insert(at(0.5)).unwrap();
+            assert!(heard.try_recv().is_err(), "a batch is said once");
+            assert_eq!(wfic::sync::unpoison(outbox.lock()).len(), 3);
+        });
+    }
+
+    #[test]
+    fn the_keeping_handle_passes_calls_through_and_keeps_what_it_stores() {
+        let mut cache = cache_in_frame_2();
+        cache.frame().run(1, |h, worker| {
+            let mut keeping = Keeping {
+                inner: h,
+                kept: Vec::new(),
+            };
+            passes_through(&mut keeping, worker);
+            let Inserted::Stored(id) = keeping.insert(at(3.0)).unwrap() else {
+                panic!("stored")
+            };
+            assert_eq!(keeping.kept.len(), 1);
+            assert_eq!(keeping.kept[0].id(), id);
+        });
+    }
+
     #[test]
     fn tiles_go_to_the_ranks_short_of_work_in_rank_order() {
         let mut plan = TilePlan::new(10);
