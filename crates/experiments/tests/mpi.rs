@@ -127,9 +127,20 @@ fn ranks(dir: &Path) -> (DistributedStats, Vec<RankStats>) {
 
 /// Each rank received, from each other rank, exactly the records that rank sent, in its order
 /// (the digests match), and inserted every one of them: the ranks' caches are WF `Adopt`, which
-/// stores every valid record, and a record another rank computed is valid.
+/// stores every valid record, and a record another rank computed is valid. Each rank's entry is
+/// its own, its bytes are its records' (a record's wire size, sent once to each other rank), and
+/// its collectives and inserts were timed.
 fn check_exchange(ranks: &[RankStats]) {
+    let wire = std::mem::size_of::<wfic_render::distributed::WireRecord>() as u64;
+    let others = ranks.len() as u64 - 1;
     for (r, me) in ranks.iter().enumerate() {
+        assert_eq!(me.rank, r as u32, "rank {r}'s entry");
+        assert_eq!(me.bytes_sent, me.records_sent * wire * others, "rank {r}");
+        assert_eq!(me.bytes_received, me.records_received * wire, "rank {r}");
+        assert!(me.collective_seconds > 0.0, "rank {r}: {me:?}");
+        if me.records_received > 0 {
+            assert!(me.insert_seconds > 0.0, "rank {r}: {me:?}");
+        }
         let from_others: u64 = ranks
             .iter()
             .enumerate()
@@ -267,6 +278,7 @@ fn deterministic_ranks_render_the_single_process_picture_bit_for_bit() {
         assert_eq!(ranks.iter().map(|r| r.tiles).sum::<usize>(), 16);
         for (r, rank) in ranks.iter().enumerate() {
             assert_eq!(rank.records_sent, rank.records_computed, "rank {r}");
+            assert_eq!(rank.threads, if r == 0 { 2 } else { 1 }, "rank {r}");
         }
         check_exchange(&ranks);
     }

@@ -468,44 +468,16 @@ impl<H: CacheHandle> CacheHandle for Keeping<'_, H> {
     }
 }
 
-/// Renders one frame over the ranks of `world` (every rank calls this with the same scene,
-/// camera, settings and exchange; `threads` may differ between ranks). Rank 0 gets the frame;
-/// the others get `None`.
+/// Renders one frame per camera, in order, over the ranks of `world` (every rank calls this with
+/// the same scene, cameras, settings and exchange; `threads` may differ between ranks), each rank
+/// keeping its cache from frame to frame (the paper's animations, shared between processes): a
+/// frame's records, and the records the other ranks sent during it, serve every later frame.
+/// Rank 0 gets the frames; the others get `None`. One frame is a one-camera slice
+/// (`std::slice::from_ref`). The ranks agree first on a fingerprint of all of it, every camera
+/// included.
 ///
 /// `fail` (for the failure tests): `Some((rank, exit))` makes that rank panic (or, with `exit`,
 /// leave the process with status 3) once it has rendered its first tile.
-///
-/// # Errors
-/// [`DistributedError::Mismatch`] on every rank when the ranks' scenes or settings differ.
-#[allow(clippy::too_many_arguments)]
-pub fn render_distributed(
-    world: &SimpleCommunicator,
-    scene: &Scene,
-    camera: &Camera,
-    settings: &RenderSettings,
-    config: CacheConfig,
-    threads: usize,
-    exchange: &Exchange,
-    fail: Option<(u32, bool)>,
-) -> Result<Option<DistributedFrame>, DistributedError> {
-    let frames = render_distributed_frames(
-        world,
-        scene,
-        std::slice::from_ref(camera),
-        settings,
-        config,
-        threads,
-        exchange,
-        fail,
-    )?;
-    Ok(frames.and_then(|mut f| f.pop()))
-}
-
-/// Renders one frame per camera, in order, over the ranks of `world`, each rank keeping its
-/// cache from frame to frame (the paper's animations, shared between processes): a frame's
-/// records, and the records the other ranks sent during it, serve every later frame. Rank 0 gets
-/// the frames; the others get `None`. Arguments and errors as [`render_distributed`]; the
-/// fingerprint covers every camera.
 ///
 /// # Errors
 /// [`DistributedError::Mismatch`] on every rank when the ranks' scenes, cameras or settings
@@ -528,10 +500,10 @@ pub fn render_distributed_frames(
     settings.assert_valid(threads);
     exchange.assert_valid();
     let rank = world.rank() as u32;
-    if cameras.is_empty() {
-        return Ok((rank == 0).then(Vec::new));
+    // No camera, no frame: nothing to agree on (every rank returns at once).
+    if !cameras.is_empty() {
+        agree(world, scene, cameras, settings, exchange)?;
     }
-    agree(world, scene, cameras, settings, exchange)?;
     let job = Job {
         world,
         rank,
@@ -559,6 +531,30 @@ pub fn render_distributed_frames(
     Ok((rank == 0).then_some(frames))
 }
 
+/// The fingerprint of a run of frames: [`fingerprint`]'s line and hash for the first camera,
+/// with the number of frames and every camera's eye and target hashed in (and the number named
+/// in the line when there are several). `cameras` is not empty.
+fn frames_fingerprint(
+    scene: &Scene,
+    cameras: &[Camera],
+    settings: &RenderSettings,
+    exchange: &Exchange,
+) -> (String, u64) {
+    let (mut line, print) = fingerprint(scene, &cameras[0], settings, exchange);
+    let mut h = Fnv::new();
+    h.write(print);
+    h.write(cameras.len() as u64);
+    for c in cameras {
+        for x in c.eye.to_array().into_iter().chain(c.target.to_array()) {
+            h.write(u64::from(x.to_bits()));
+        }
+    }
+    if cameras.len() > 1 {
+        line.push_str(&format!(", {} frames", cameras.len()));
+    }
+    (line, h.finish())
+}
+
 /// Agreement: every rank gathers every rank's fingerprint of the scene, the settings and the
 /// cameras (at least one), so every rank reaches the same verdict.
 fn agree(
@@ -569,19 +565,7 @@ fn agree(
     exchange: &Exchange,
 ) -> Result<(), DistributedError> {
     let (rank, size) = (world.rank() as u32, world.size() as usize);
-    let (mut line, print) = fingerprint(scene, &cameras[0], settings, exchange);
-    let mut h = Fnv::new();
-    h.write(print);
-    h.write(cameras.len() as u64);
-    for c in cameras {
-        for x in c.eye.to_array().into_iter().chain(c.target.to_array()) {
-            h.write(u64::from(x.to_bits()));
-        }
-    }
-    let print = h.finish();
-    if cameras.len() > 1 {
-        line.push_str(&format!(", {} frames", cameras.len()));
-    }
+    let (line, print) = frames_fingerprint(scene, cameras, settings, exchange);
     let mut prints = vec![0u64; size];
     world.all_gather_into(&print, &mut prints[..]);
     let differing: Vec<u32> = (0..size as u32)
@@ -708,7 +692,6 @@ impl Job<'_> {
         let mut stats = RankStats {
             rank: self.rank,
             threads: self.threads,
-            received_digests: vec![0; size],
             ..RankStats::default()
         };
         let (mut sent, mut received) = (
@@ -757,14 +740,14 @@ impl Job<'_> {
                     handle = Some((id.worker(), frame.handle_for(id.worker())));
                 }
                 let (_, h) = handle.as_mut().expect("the tile's handle");
-                match h.insert(w.record()) {
-                    Ok(Inserted::Stored(got)) if got == id => stats.records_inserted += 1,
-                    other => panic!(
-                        "rank {rank}: record {id} from rank {} came back as {other:?}: the \
-                         ranks' caches have diverged",
-                        w.origin
-                    ),
-                }
+                let got = h.insert(w.record());
+                assert!(
+                    stored_as(&got, id),
+                    "rank {rank}: record {id} from rank {} came back as {got:?}: the ranks' \
+                     caches have diverged",
+                    w.origin
+                );
+                stats.records_inserted += 1;
             }
             drop(handle);
             stats.insert_seconds += inserting.elapsed().as_secs_f64();
@@ -878,7 +861,14 @@ impl Job<'_> {
     }
 }
 
-/// The failure `--fail-rank` asks for (`fail`, see [`render_distributed`]), if it names `rank`:
+/// Whether a record another rank sent was stored under `id`, the id it has on that rank: in a
+/// deterministic frame every rank's cache gives a tile's records the same ids, so any other
+/// outcome means the ranks' caches have diverged.
+fn stored_as(got: &Result<Inserted, InsertError>, id: RecordId) -> bool {
+    matches!(got, Ok(Inserted::Stored(stored)) if *stored == id)
+}
+
+/// The failure `--fail-rank` asks for (`fail`, see [`render_distributed_frames`]), if it names `rank`:
 /// called after each tile.
 fn fail_if_asked(fail: Option<(u32, bool)>, rank: u32) {
     if fail == Some((rank, false)) {
@@ -1233,6 +1223,42 @@ mod tests {
         let (other_line, other) = fingerprint(&scene, &camera, &reseeded, &exchange);
         assert_ne!(other_line, line);
         assert_ne!(other, print);
+    }
+
+    /// A run of frames is told apart by its number of frames and by any camera, and its line
+    /// names the number when there are several.
+    #[test]
+    fn the_frames_fingerprint_covers_every_camera_and_names_the_count() {
+        let scene = crate::scenes::cornell().unwrap();
+        let camera = scene.camera();
+        let settings = RenderSettings::new(32, 24);
+        let exchange = Exchange::default();
+        let print = |cameras: &[Camera]| frames_fingerprint(&scene, cameras, &settings, &exchange);
+        let (one_line, one) = print(&[camera]);
+        assert_eq!(
+            one_line,
+            fingerprint(&scene, &camera, &settings, &exchange).0
+        );
+        assert!(!one_line.contains("frames"), "{one_line}");
+        let (two_line, two) = print(&[camera, camera]);
+        assert!(two_line.ends_with(", 2 frames"), "{two_line}");
+        assert_ne!(two, one);
+        let mut moved = camera;
+        moved.eye.x += 0.5;
+        let (moved_line, moved_print) = print(&[camera, moved]);
+        assert_eq!(moved_line, two_line, "the line names the first camera only");
+        assert_ne!(moved_print, two, "the hash sees the second camera");
+        assert_eq!(print(&[camera, camera]).1, two);
+    }
+
+    /// A received record counts as inserted only if stored under its own id.
+    #[test]
+    fn a_received_record_must_keep_its_id() {
+        let id = RecordId::new(WorkerId::new(3), 2, 7);
+        let other = RecordId::new(WorkerId::new(3), 2, 8);
+        assert!(stored_as(&Ok(Inserted::Stored(id)), id));
+        assert!(!stored_as(&Ok(Inserted::Stored(other)), id));
+        assert!(!stored_as(&Ok(Inserted::Discarded(id)), id));
     }
 
     #[test]
