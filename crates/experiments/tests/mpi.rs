@@ -279,6 +279,9 @@ fn deterministic_ranks_render_the_single_process_picture_bit_for_bit() {
         for (r, rank) in ranks.iter().enumerate() {
             assert_eq!(rank.records_sent, rank.records_computed, "rank {r}");
             assert_eq!(rank.threads, if r == 0 { 2 } else { 1 }, "rank {r}");
+            // One exchange a pass: the pretraces, then the frame.
+            let passes = wfic_render::deterministic::PRETRACE_STRIDES.len() as u64 + 1;
+            assert_eq!(rank.rounds, passes, "rank {r}");
         }
         check_exchange(&ranks);
     }
