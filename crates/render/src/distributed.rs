@@ -958,10 +958,10 @@ impl<'a> Rounds<'a> {
         let (threads, batch) = (self.job.threads, self.job.exchange.batch_records.max(1));
         loop {
             let pending = wfic::sync::unpoison(self.outbox.lock()).len();
-            if pending >= batch
-                || (self.queue.len() < threads && !self.plan.exhausted())
-                || self.finished == threads
-            {
+            // A full batch, a queue short of work while tiles are left, or every worker done
+            // (`round_due`, which the unit tests pin).
+            let starved = (self.queue.len(), self.plan.exhausted());
+            if round_due(pending, batch, starved, threads, self.finished) {
                 return;
             }
             let Some(left) = deadline.checked_duration_since(Instant::now()) else {
@@ -1136,6 +1136,21 @@ fn gather<T: Equivalence + Default + Clone>(
     }
 }
 
+/// Whether a round is due now ([`Rounds::wait_for_round`]): the outbox holds a batch (`pending`
+/// records of `batch`), the queue holds fewer tiles than there are workers while the plan has
+/// tiles left (`starved`: the queue's length and whether the plan is exhausted), or all
+/// `threads` workers have finished.
+fn round_due(
+    pending: usize,
+    batch: usize,
+    starved: (usize, bool),
+    threads: usize,
+    finished: usize,
+) -> bool {
+    let (queued, exhausted) = starved;
+    pending >= batch || (queued < threads && !exhausted) || finished == threads
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -1259,6 +1274,33 @@ mod tests {
         assert!(stored_as(&Ok(Inserted::Stored(id)), id));
         assert!(!stored_as(&Ok(Inserted::Stored(other)), id));
         assert!(!stored_as(&Ok(Inserted::Discarded(id)), id));
+    }
+
+    /// A round starts on a full batch, a starved queue with tiles left, or every worker done,
+    /// and not otherwise.
+    #[test]
+    fn a_round_is_due_on_a_batch_a_starved_queue_or_the_end() {
+        // Two workers, batches of 4, two tiles queued, tiles left, nobody finished: wait.
+        let (batch, threads, fed) = (4, 2, (2, false));
+        assert!(!round_due(3, batch, fed, threads, 0), "a batch short: wait");
+        assert!(round_due(4, batch, fed, threads, 0), "a full batch");
+        assert!(round_due(9, batch, fed, threads, 0), "more than a batch");
+        assert!(
+            round_due(0, batch, (1, false), threads, 0),
+            "a starved queue"
+        );
+        assert!(
+            !round_due(0, batch, (1, true), threads, 0),
+            "starved, nothing left to give"
+        );
+        assert!(
+            !round_due(0, batch, (1, true), threads, 1),
+            "one worker still at work"
+        );
+        assert!(
+            round_due(0, batch, (0, true), threads, 2),
+            "every worker done"
+        );
     }
 
     #[test]
