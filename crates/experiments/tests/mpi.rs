@@ -181,6 +181,7 @@ fn distributed_render_matches(np: u32) {
         assert!(rank.tiles > 0, "rank {r} rendered nothing: {json:?}");
         assert!(rank.records_computed > 0, "rank {r}: {json:?}");
         assert!(rank.records_received > 0, "rank {r}: {json:?}");
+        assert!((1..1_000_000).contains(&rank.rounds), "rank {r}: {json:?}");
         // Every record a rank computed went out in a round: the rounds end only once its
         // workers are done and their last records are sent.
         assert_eq!(

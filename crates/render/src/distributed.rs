@@ -1005,8 +1005,8 @@ impl<'a> Rounds<'a> {
         self.computed.extend(new);
         let state = [
             self.queue.len() as u64,
-            2 * self.job.threads as u64,
-            u64::from(done && self.plan.exhausted()),
+            tiles_wanted(self.job.threads),
+            u64::from(done), // a worker finishes once the queue closes: the plan is exhausted
             outgoing.len() as u64,
         ];
         let round = self.agree_on(&state, &outgoing);
@@ -1134,6 +1134,12 @@ fn gather<T: Equivalence + Default + Clone>(
         root.gather_varcount_into(mine);
         None
     }
+}
+
+/// The tiles a rank of `threads` workers asks to hold queued at a round: two a worker, so that
+/// each has the next at hand while the round runs.
+fn tiles_wanted(threads: usize) -> u64 {
+    2 * threads as u64
 }
 
 /// Whether a round is due now ([`Rounds::wait_for_round`]): the outbox holds a batch (`pending`
@@ -1274,6 +1280,12 @@ mod tests {
         assert!(stored_as(&Ok(Inserted::Stored(id)), id));
         assert!(!stored_as(&Ok(Inserted::Stored(other)), id));
         assert!(!stored_as(&Ok(Inserted::Discarded(id)), id));
+    }
+
+    #[test]
+    fn a_rank_asks_for_two_tiles_a_worker() {
+        assert_eq!(tiles_wanted(1), 2);
+        assert_eq!(tiles_wanted(3), 6);
     }
 
     /// A round starts on a full batch, a starved queue with tiles left, or every worker done,
