@@ -56,7 +56,9 @@ real_thread_tests=(agreement stress robustness leaks wf_api lookup_work removal 
 
 # `WFIC_MUTANTS_RESUME=1` keeps the scope's results and runs every stage again with `--iterate`,
 # on the mutants the earlier stages left alive only (after adding a test: the fast stage first,
-# so a new unit test kills its mutants in seconds).
+# so a new unit test kills its mutants in seconds). A mutant an earlier stage timed out on is not
+# tested again: it already counts as caught, and `--iterate` would retest it, at the cost of a
+# whole timeout each time it hangs a later stage's suite.
 resume=${WFIC_MUTANTS_RESUME:-0}
 # `WFIC_MUTANTS_FROM=N` runs the scope's stages from the Nth on, over the results of those before
 # (kept in results/mutants/SCOPE, with the last one's in mutants.out: a stage that failed to start
@@ -75,6 +77,11 @@ stage() {
     mkdir -p "$out"
     local iterate=()
     if [ "$first" = no ] || [ "$resume" = 1 ]; then iterate=(--iterate); fi
+    if [ "$resume" = 1 ]; then
+        local hung
+        hung=$(timed_out "$out")
+        if [ -n "$hung" ]; then iterate+=(--exclude-re "$hung"); fi
+    fi
     echo "== mutants $scope: cargo mutants ${common[*]} ${iterate[*]} $* (at $(git rev-parse --short HEAD))" |
         tee -a "$out/commands.txt"
     # Exit status 2 means "some mutants were missed", 3 "some timed out": results, not errors.
@@ -86,6 +93,17 @@ stage() {
     local n=$(($(ls -d "$out"/stage-* 2>/dev/null | wc -l) + 1))
     mkdir -p "$out/stage-$n"
     cp "$out"/mutants.out/*.txt "$out"/mutants.out/outcomes.json "$out/stage-$n/"
+}
+
+# timed_out DIR: one regular expression matching exactly the mutants any earlier stage of DIR
+# timed out on (their names, metacharacters escaped, anchored), or nothing if there are none.
+timed_out() {
+    cat "$1"/stage-*/timeout.txt 2>/dev/null | sort -u | python3 -c '
+import sys
+names = [l.strip() for l in sys.stdin if l.strip()]
+meta = set("\\.+*?()|[]{}^$#&-~")
+esc = lambda n: "".join("\\" + c if c in meta else c for c in n)
+print("^(" + "|".join(esc(n) for n in names) + ")$" if names else "")'
 }
 
 # cargo-mutants 27.1.0 runs its baseline (the suite on the unmutated tree, which also sets the
