@@ -77,12 +77,17 @@ stage() {
     mkdir -p "$out"
     local iterate=()
     if [ "$first" = no ] || [ "$resume" = 1 ]; then iterate=(--iterate); fi
+    # What commands.txt shows of the options: the exclusion by its meaning, not its regex.
+    local shown=("${iterate[@]}")
     if [ "$resume" = 1 ]; then
         local hung
         hung=$(timed_out "$out")
-        if [ -n "$hung" ]; then iterate+=(--exclude-re "$hung"); fi
+        if [ -n "$hung" ]; then
+            iterate+=(--exclude-re "$hung")
+            shown+=(--exclude-re "'<the $(cat "$out"/stage-*/timeout.txt | sort -u | wc -l) mutants earlier stages timed out on>'")
+        fi
     fi
-    echo "== mutants $scope: cargo mutants ${common[*]} ${iterate[*]} $* (at $(git rev-parse --short HEAD))" |
+    echo "== mutants $scope: cargo mutants ${common[*]} ${shown[*]} $* (at $(git rev-parse --short HEAD))" |
         tee -a "$out/commands.txt"
     # Exit status 2 means "some mutants were missed", 3 "some timed out": results, not errors.
     cargo mutants "${common[@]}" "${iterate[@]}" -o "$out" "$@" || {
