@@ -1225,13 +1225,22 @@ mod tests {
         assert_eq!(h.finish(), reference(&bytes));
     }
 
+    /// The Cornell box from its camera at 32 x 24, with the default exchange.
+    fn cornell_32x24() -> (Scene, Camera, RenderSettings, Exchange) {
+        let scene = crate::scenes::cornell().unwrap();
+        let camera = scene.camera();
+        (
+            scene,
+            camera,
+            RenderSettings::new(32, 24),
+            Exchange::default(),
+        )
+    }
+
     /// The fingerprint is the same for the same frame and differs when a setting does.
     #[test]
     fn the_fingerprint_names_the_settings_and_tells_them_apart() {
-        let scene = crate::scenes::cornell().unwrap();
-        let camera = scene.camera();
-        let settings = RenderSettings::new(32, 24);
-        let exchange = Exchange::default();
+        let (scene, camera, settings, exchange) = cornell_32x24();
         let (line, print) = fingerprint(&scene, &camera, &settings, &exchange);
         assert!(line.starts_with("scene cornell ("), "{line}");
         assert!(line.contains("32x24"), "{line}");
@@ -1250,10 +1259,7 @@ mod tests {
     /// names the number when there are several.
     #[test]
     fn the_frames_fingerprint_covers_every_camera_and_names_the_count() {
-        let scene = crate::scenes::cornell().unwrap();
-        let camera = scene.camera();
-        let settings = RenderSettings::new(32, 24);
-        let exchange = Exchange::default();
+        let (scene, camera, settings, exchange) = cornell_32x24();
         let print = |cameras: &[Camera]| frames_fingerprint(&scene, cameras, &settings, &exchange);
         let (one_line, one) = print(&[camera]);
         assert_eq!(
