@@ -265,7 +265,10 @@ fn direct_compares_the_estimators_and_writes_its_page() {
             variance("cornell", samples, "power/d2"),
             variance("cornell", samples, "bounds"),
         );
-        assert_eq!(new, old, "cornell at {samples}");
+        // One panel, which most of the box sees whole: the control variate makes those hits
+        // exact. Solid-angle sampling alone gives 0.36-0.38 of the old variance here, with the
+        // control 0.19-0.22.
+        assert!(new < 0.3 * old, "cornell at {samples}: {new} against {old}");
     }
     std::fs::remove_dir_all(&dir).ok();
 }

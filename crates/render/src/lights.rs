@@ -22,10 +22,13 @@
 //! Above [`MAX_WEIGHED`] emitters the per-point weights would cost more than they save, and the
 //! choice falls back to power alone.
 //!
-//! **Near emitters by solid angle.** Next to an emitter ([`NEAR`]) a point uniform in its area
+//! **Small emitters by solid angle.** Next to an emitter ([`NEAR`]) a point uniform in its area
 //! carries `1 / dist^2` that varies by more than 4x over it: one sample is noisy, and many are
 //! needed for a quiet estimate. An emitter of at most
-//! [`SOLID_ANGLE_MAX`] triangles is sampled by solid angle there instead: a triangle with
+//! [`SOLID_ANGLE_MAX`] triangles is sampled by solid angle there instead (under
+//! [`DirectSampling::Bounds`], everywhere: there the integrator controls its samples by its exact
+//! unoccluded irradiance, [`Lights::unoccluded_irradiance`], and a blocked sample then costs the
+//! estimate only what `x`'s cosine makes it differ from the mean): a triangle with
 //! probability proportional to the solid angle it subtends (Van Oosterom and Strackee's formula,
 //! in f32 where the emitter and the chosen triangle subtend at least [`F32_MIN`], else in f64;
 //! zero for a triangle `x` is behind), then a direction uniform in that spherical
@@ -518,6 +521,57 @@ fn cone_of(e: &Emitter, x: Vec3) -> Option<(Vec3, f32, f32)> {
     Some((d / dist, one_minus_cos, (dist + r) * (1.0 + 1e-4)))
 }
 
+/// Most triangles of an emitter whose unoccluded irradiance the integrator computes exactly, as
+/// the control variate of its samples ([`Lights::unoccluded_irradiance`]); the quads and panels
+/// of the scenes here have two.
+pub const CONTROL_MAX: usize = SOLID_ANGLE_MAX;
+
+/// `integral of cos(n, w) dw` over the part of triangle `corners` (relative to the shading point)
+/// above the plane normal to `n`: the triangle clipped to the point's upper hemisphere, then
+/// Lambert's formula for a polygon, half the sum over its edges of the angle the edge subtends
+/// times `n` dotted with the unit normal of the plane through the edge and the point. In `f64`:
+/// for a small, far triangle the edge terms are of first order in its angular size and their sum
+/// of second, so `f32` would lose the digits the control variate relies on. `None` when a corner
+/// is at the point.
+fn projected_solid_angle(corners: [glam::DVec3; 3], n: glam::DVec3) -> Option<f64> {
+    if corners.iter().any(|c| c.length_squared() < 1e-24) {
+        return None;
+    }
+    // Sutherland-Hodgman against one plane: a triangle becomes at most a quadrilateral.
+    let mut poly = [glam::DVec3::ZERO; 4];
+    let mut m = 0;
+    for i in 0..3 {
+        let (a, b) = (corners[i], corners[(i + 1) % 3]);
+        let (da, db) = (n.dot(a), n.dot(b));
+        if da >= 0.0 {
+            poly[m] = a;
+            m += 1;
+        }
+        if (da >= 0.0) != (db >= 0.0) {
+            poly[m] = a + (b - a) * (da / (da - db));
+            m += 1;
+        }
+    }
+    if m < 3 {
+        return Some(0.0);
+    }
+    let mut sum = 0.0;
+    for i in 0..m {
+        let (a, b) = (poly[i], poly[(i + 1) % m]);
+        if a.length_squared() < 1e-24 || b.length_squared() < 1e-24 {
+            // A clipped corner on the point itself: the polygon touches the point.
+            return None;
+        }
+        let (a, b) = (a.normalize(), b.normalize());
+        let c = a.cross(b);
+        let len = c.length();
+        if len > 0.0 {
+            sum += len.atan2(a.dot(b)) * n.dot(c) / len;
+        }
+    }
+    Some(0.5 * sum.abs())
+}
+
 /// Smallest solid angle (sr) an emitter and the triangle chosen in it subtend for the sampler to
 /// work in `f32`; below, `f64`. At `1e-2` sr the triangle spans about a tenth of a radian, where
 /// `f32`'s rounding (`6e-8`) moves a sampled direction by about `1e-6` of that span.
@@ -725,7 +779,12 @@ impl Lights {
                 };
                 let nearest = (dist - e.radius).max(plane);
                 let coned = sampling == DirectSampling::Bounds && cone_of(e, x).is_some();
-                if dist + e.radius > NEAR * nearest && !coned {
+                // An emitter whose samples the integrator controls by its exact unoccluded
+                // irradiance is sampled by solid angle wherever it is: a sample's unoccluded
+                // contribution then varies over the emitter only by `x`'s cosine, so one that a
+                // shadow takes away costs the estimate little ([`Lights::unoccluded_irradiance`]).
+                let controlled = sampling == DirectSampling::Bounds && e.count <= CONTROL_MAX;
+                if (controlled || dist + e.radius > NEAR * nearest) && !coned {
                     // MAX_WEIGHED <= 64: k fits the bit set.
                     if e.count <= SOLID_ANGLE_MAX {
                         choice.by_solid_angle |= 1 << k;
@@ -743,6 +802,39 @@ impl Lights {
             }
             choice.cdf[choice.len - 1] = 1.0;
         }
+    }
+
+    /// The irradiance emitter `k` would bring to `x` (unit facing normal `n`) if nothing blocked
+    /// it: its radiance times the projected solid angle of each of its triangles that `x` is in
+    /// front of, clipped to `x`'s upper hemisphere. It is the mean of what
+    /// [`Lights::sample_emitter`]'s point samples would bring unoccluded (a sample's emission
+    /// times its geometry term over its density, zero behind either surface), so the integrator
+    /// uses it as their control variate. `None` where that does not hold or it is not worth its
+    /// cost: an emitter sampled by cone at `x`, one of more than [`CONTROL_MAX`] triangles, or a
+    /// corner at `x`.
+    pub fn unoccluded_irradiance(
+        &self,
+        choice: &LightChoice,
+        k: usize,
+        x: Vec3,
+        n: Vec3,
+    ) -> Option<Vec3> {
+        let e = &self.emitters[k];
+        let coned = choice.sampling == DirectSampling::Bounds && cone_of(e, x).is_some();
+        if e.count > CONTROL_MAX || coned {
+            return None;
+        }
+        let xd = x.as_dvec3();
+        let nd = n.as_dvec3();
+        let mut sum = 0.0f64;
+        for l in &self.lights[e.first..e.first + e.count] {
+            // One-sided: only a triangle whose emitting side faces x.
+            if l.normal.as_dvec3().dot(xd - l.corners[0].as_dvec3()) <= 0.0 {
+                continue;
+            }
+            sum += projected_solid_angle(l.corners.map(|c| c.as_dvec3() - xd), nd)?;
+        }
+        Some(self.lights[e.first].emission * sum as f32)
     }
 
     /// The light point for the uniform numbers `u` in `[0, 1)^3` under `choice`: `u[0]` chooses
@@ -1263,5 +1355,50 @@ mod tests {
         }
         let p0 = c.cdf[0];
         assert!((seen[0] as f32 / n as f32 - p0).abs() < 2.0 / n as f32 + 1e-3);
+    }
+
+    /// The exact unoccluded irradiance ([`Lights::unoccluded_irradiance`]): below a corner of a
+    /// unit square at height 1, the parallel-rectangle form factor; half under the square with
+    /// the normal along it, so that the horizon cuts the square in two, a brute-force sum over
+    /// its cells of `L cos_x cos_l / d^2`; and nothing for a point behind it.
+    #[test]
+    fn unoccluded_irradiance_is_the_exact_integral_clipped_to_the_horizon() {
+        use glam::DVec3;
+        let lights = three();
+        // The first square: [0, 1] x [0, 1] at y = 1, facing down, radiance 1.
+        let k = lights.emitter_of(0) as usize;
+        let exact = |x: Vec3, n: Vec3| {
+            let choice = lights.choice(x, n, DirectSampling::Bounds);
+            lights.unoccluded_irradiance(&choice, k, x, n).unwrap().x as f64
+        };
+        // F = (1 / 2 pi) [X / sqrt(1 + X^2) atan(Y / sqrt(1 + X^2)) + (X <-> Y)], X = Y = 1.
+        let f = 2.0 * (0.5f64).sqrt() * (0.5f64).sqrt().atan() / (2.0 * std::f64::consts::PI);
+        let corner = exact(Vec3::ZERO, Vec3::Y);
+        let want = std::f64::consts::PI * f;
+        assert!((corner / want - 1.0).abs() < 1e-5, "{corner} vs {want}");
+        // The horizon through the square's middle: only x > 0.5 lights the point.
+        let (x, n) = (DVec3::new(0.5, 0.0, 0.3), DVec3::X);
+        let cells = 1000;
+        let mut brute = 0.0;
+        for i in 0..cells {
+            for j in 0..cells {
+                let p = DVec3::new(
+                    (i as f64 + 0.5) / cells as f64,
+                    1.0,
+                    (j as f64 + 0.5) / cells as f64,
+                );
+                let d = p - x;
+                let d2 = d.length_squared();
+                let w = d / d2.sqrt();
+                let (cos_x, cos_l) = (n.dot(w), w.y);
+                if cos_x > 0.0 {
+                    brute += cos_x * cos_l / d2 / (cells * cells) as f64;
+                }
+            }
+        }
+        let half = exact(x.as_vec3(), n.as_vec3());
+        assert!((half / brute - 1.0).abs() < 1e-3, "{half} vs {brute}");
+        // Above the square, which emits downwards: nothing.
+        assert_eq!(exact(Vec3::new(0.5, 2.0, 0.5), -Vec3::Y), 0.0);
     }
 }

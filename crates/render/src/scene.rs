@@ -496,6 +496,18 @@ impl Scene {
         self.lights.sample_emitter(choice, k, 1.0, u)
     }
 
+    /// Emitter `k`'s irradiance at `x` were nothing in the way ([`Lights::unoccluded_irradiance`]).
+    #[inline]
+    pub fn emitter_unoccluded(
+        &self,
+        choice: &LightChoice,
+        k: usize,
+        x: Vec3,
+        n: Vec3,
+    ) -> Option<Vec3> {
+        self.lights.unoccluded_irradiance(choice, k, x, n)
+    }
+
     /// The emitter whose front face the unit ray `origin + t dir`, `t < t_max`, meets first, if
     /// what it meets first is an emitter's front face.
     #[inline]
