@@ -526,51 +526,65 @@ fn cone_of(e: &Emitter, x: Vec3) -> Option<(Vec3, f32, f32)> {
 /// of the scenes here have two.
 pub const CONTROL_MAX: usize = SOLID_ANGLE_MAX;
 
-/// `integral of cos(n, w) dw` over the part of triangle `corners` (relative to the shading point)
-/// above the plane normal to `n`: the triangle clipped to the point's upper hemisphere, then
-/// Lambert's formula for a polygon, half the sum over its edges of the angle the edge subtends
-/// times `n` dotted with the unit normal of the plane through the edge and the point. In `f64`:
-/// for a small, far triangle the edge terms are of first order in its angular size and their sum
-/// of second, so `f32` would lose the digits the control variate relies on. `None` when a corner
-/// is at the point.
-fn projected_solid_angle(corners: [glam::DVec3; 3], n: glam::DVec3) -> Option<f64> {
-    if corners.iter().any(|c| c.length_squared() < 1e-24) {
-        return None;
-    }
-    // Sutherland-Hodgman against one plane: a triangle becomes at most a quadrilateral.
-    let mut poly = [glam::DVec3::ZERO; 4];
-    let mut m = 0;
-    for i in 0..3 {
-        let (a, b) = (corners[i], corners[(i + 1) % 3]);
-        let (da, db) = (n.dot(a), n.dot(b));
-        if da >= 0.0 {
-            poly[m] = a;
-            m += 1;
+/// `projected_solid_angle` in one float width (`$v`, `$f`): `integral of cos(n, w) dw` over the
+/// part of triangle `corners` (relative to the shading point) above the plane normal to `n`. The
+/// triangle is clipped to the point's upper hemisphere, then Lambert's formula for a polygon:
+/// half the sum over its edges of the angle the edge subtends times `n` dotted with the unit
+/// normal of the plane through the edge and the point. `None` when a corner is at the point.
+/// For a small, far triangle the edge terms are of first order in its angular size and their sum
+/// of second, so the caller takes `f64` unless the triangle is wide as seen from the point
+/// ([`CONTROL_F32_MIN`]).
+macro_rules! projected_solid_angle {
+    ($name:ident, $v:ty, $f:ty) => {
+        fn $name(corners: [$v; 3], n: $v) -> Option<$f> {
+            let tiny: $f = 1e-24;
+            // Sutherland-Hodgman against one plane: a triangle becomes at most a quadrilateral.
+            let mut poly = [<$v>::ZERO; 4];
+            let mut m = 0;
+            for i in 0..3 {
+                let (a, b) = (corners[i], corners[(i + 1) % 3]);
+                let (da, db) = (n.dot(a), n.dot(b));
+                if da >= 0.0 {
+                    poly[m] = a;
+                    m += 1;
+                }
+                if (da >= 0.0) != (db >= 0.0) {
+                    poly[m] = a + (b - a) * (da / (da - db));
+                    m += 1;
+                }
+            }
+            if m < 3 {
+                return Some(0.0);
+            }
+            for p in &mut poly[..m] {
+                let len2 = p.length_squared();
+                if len2 < tiny {
+                    // A corner, or a clipped one, at the point itself.
+                    return None;
+                }
+                *p /= len2.sqrt();
+            }
+            let mut sum: $f = 0.0;
+            for i in 0..m {
+                let (a, b) = (poly[i], poly[(i + 1) % m]);
+                let c = a.cross(b);
+                let len = c.length();
+                if len > 0.0 {
+                    sum += len.atan2(a.dot(b)) * n.dot(c) / len;
+                }
+            }
+            Some(0.5 * sum.abs())
         }
-        if (da >= 0.0) != (db >= 0.0) {
-            poly[m] = a + (b - a) * (da / (da - db));
-            m += 1;
-        }
-    }
-    if m < 3 {
-        return Some(0.0);
-    }
-    let mut sum = 0.0;
-    for i in 0..m {
-        let (a, b) = (poly[i], poly[(i + 1) % m]);
-        if a.length_squared() < 1e-24 || b.length_squared() < 1e-24 {
-            // A clipped corner on the point itself: the polygon touches the point.
-            return None;
-        }
-        let (a, b) = (a.normalize(), b.normalize());
-        let c = a.cross(b);
-        let len = c.length();
-        if len > 0.0 {
-            sum += len.atan2(a.dot(b)) * n.dot(c) / len;
-        }
-    }
-    Some(0.5 * sum.abs())
+    };
 }
+
+projected_solid_angle!(projected_solid_angle_f64, glam::DVec3, f64);
+projected_solid_angle!(projected_solid_angle_f32, Vec3, f32);
+
+/// A triangle whose longest edge is at least this fraction of its nearest corner's distance has
+/// its projected solid angle computed in `f32`: its edge terms are then at most this many times
+/// their sum's order, and `f32`'s rounding (`6e-8`) costs the sum about `1e-6` of itself.
+pub const CONTROL_F32_MIN: f32 = 0.1;
 
 /// Smallest solid angle (sr) an emitter and the triangle chosen in it subtend for the sampler to
 /// work in `f32`; below, `f64`. At `1e-2` sr the triangle spans about a tenth of a radian, where
@@ -779,12 +793,7 @@ impl Lights {
                 };
                 let nearest = (dist - e.radius).max(plane);
                 let coned = sampling == DirectSampling::Bounds && cone_of(e, x).is_some();
-                // An emitter whose samples the integrator controls by its exact unoccluded
-                // irradiance is sampled by solid angle wherever it is: a sample's unoccluded
-                // contribution then varies over the emitter only by `x`'s cosine, so one that a
-                // shadow takes away costs the estimate little ([`Lights::unoccluded_irradiance`]).
-                let controlled = sampling == DirectSampling::Bounds && e.count <= CONTROL_MAX;
-                if (controlled || dist + e.radius > NEAR * nearest) && !coned {
+                if dist + e.radius > NEAR * nearest && !coned {
                     // MAX_WEIGHED <= 64: k fits the bit set.
                     if e.count <= SOLID_ANGLE_MAX {
                         choice.by_solid_angle |= 1 << k;
@@ -824,17 +833,29 @@ impl Lights {
         if e.count > CONTROL_MAX || coned {
             return None;
         }
-        let xd = x.as_dvec3();
-        let nd = n.as_dvec3();
-        let mut sum = 0.0f64;
+        let mut sum = 0.0f32;
         for l in &self.lights[e.first..e.first + e.count] {
+            let rel = l.corners.map(|c| c - x);
             // One-sided: only a triangle whose emitting side faces x.
-            if l.normal.as_dvec3().dot(xd - l.corners[0].as_dvec3()) <= 0.0 {
+            if l.normal.dot(rel[0]) >= 0.0 {
                 continue;
             }
-            sum += projected_solid_angle(l.corners.map(|c| c.as_dvec3() - xd), nd)?;
+            let near = rel
+                .iter()
+                .map(|r| r.length_squared())
+                .fold(f32::MAX, f32::min);
+            let edge = (0..3)
+                .map(|i| (l.corners[i] - l.corners[(i + 1) % 3]).length_squared())
+                .fold(0.0, f32::max);
+            sum += if edge >= CONTROL_F32_MIN * CONTROL_F32_MIN * near {
+                projected_solid_angle_f32(rel, n)?
+            } else {
+                let xd = x.as_dvec3();
+                projected_solid_angle_f64(l.corners.map(|c| c.as_dvec3() - xd), n.as_dvec3())?
+                    as f32
+            };
         }
-        Some(self.lights[e.first].emission * sum as f32)
+        Some(self.lights[e.first].emission * sum)
     }
 
     /// The light point for the uniform numbers `u` in `[0, 1)^3` under `choice`: `u[0]` chooses
@@ -1371,11 +1392,18 @@ mod tests {
             let choice = lights.choice(x, n, DirectSampling::Bounds);
             lights.unoccluded_irradiance(&choice, k, x, n).unwrap().x as f64
         };
-        // F = (1 / 2 pi) [X / sqrt(1 + X^2) atan(Y / sqrt(1 + X^2)) + (X <-> Y)], X = Y = 1.
-        let f = 2.0 * (0.5f64).sqrt() * (0.5f64).sqrt().atan() / (2.0 * std::f64::consts::PI);
-        let corner = exact(Vec3::ZERO, Vec3::Y);
-        let want = std::f64::consts::PI * f;
-        assert!((corner / want - 1.0).abs() < 1e-5, "{corner} vs {want}");
+        // F = (1 / 2 pi) [X / sqrt(1 + X^2) atan(Y / sqrt(1 + X^2)) + (X <-> Y)], X = Y = 1 / h:
+        // at h = 1 in f32, at h = 20 (the square then too narrow for f32) in f64.
+        for h in [1.0f64, 20.0] {
+            let x = 1.0 / h;
+            let s = x / (1.0 + x * x).sqrt();
+            let want = 2.0 * s * s.atan() / 2.0;
+            let corner = exact(Vec3::new(0.0, 1.0 - h as f32, 0.0), Vec3::Y);
+            assert!(
+                (corner / want - 1.0).abs() < 1e-5,
+                "h = {h}: {corner} vs {want}"
+            );
+        }
         // The horizon through the square's middle: only x > 0.5 lights the point.
         let (x, n) = (DVec3::new(0.5, 0.0, 0.3), DVec3::X);
         let cells = 1000;
