@@ -90,6 +90,15 @@ fn both(e: &ImageError) -> String {
     format!("{} ({})", pct(e.rel_rmse), pct(e.mean_rel))
 }
 
+/// A percentage, or `n/a` for NaN (a row with nothing of that kind to measure).
+fn pct_or_na(x: f64) -> String {
+    if x.is_nan() {
+        "n/a".to_owned()
+    } else {
+        pct(x)
+    }
+}
+
 /// A row's mean cache error, with the range of its renders when there were several.
 fn with_range(run: &Run) -> String {
     let (e, (lo, hi)) = (pct(run.cache_error.rel_rmse), run.cache_error_range);
@@ -499,7 +508,7 @@ fn runs_table<'a>() -> Table<'a, Row<'a>> {
         .csv_as(|(_, x)| format!("{:.4}", x.seconds))
         .col("records", "records", |(_, x)| x.records.to_string())
         .col("cache error", "cache_rel_rmse", |(_, x)| {
-            pct(x.cache_error.rel_rmse)
+            pct_or_na(x.cache_error.rel_rmse)
         })
         .csv_as(move |(_, x)| e6(x.cache_error.rel_rmse))
         .csv("cache_mean_rel", move |(_, x)| e6(x.cache_error.mean_rel))
@@ -526,4 +535,15 @@ fn runs_table<'a>() -> Table<'a, Row<'a>> {
 /// Every run as CSV.
 pub fn csv(results: &[SceneComparison]) -> String {
     runs_table().csv_text(&every_run(results))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_cell_with_nothing_to_measure_reads_n_a() {
+        assert_eq!(pct_or_na(f64::NAN), "n/a");
+        assert_eq!(pct_or_na(0.0123), "1.23%");
+    }
 }
