@@ -24,6 +24,9 @@
 #   bash verify/mutants.sh bounds|render-limits              (the lines of src/cache the command
 #                                                            line's bounds changed; the renderer's
 #                                                            ranges and their validation)
+#   bash verify/mutants.sh render-direct                    (the lines of the renderer's lights,
+#                                                            integrator and scene that the direct
+#                                                            light's control variate changed)
 #   bash verify/mutants.sh summary SCOPE                    (rewrite SCOPE's summary.md)
 #
 # Each scope runs as a cascade: every mutant is first tested against the fastest suite that can
@@ -212,6 +215,9 @@ bounds_base=83693a4
 # The commit before grown lists were rebuilt as one block (issue 42): wf-compact mutates the lines
 # changed since.
 compact_base=9e7c548
+# The commit before the direct light's control variate (issue 41): render-direct mutates the
+# lines changed since.
+direct_base=6fbe1b8
 # diff_of SCOPE: the --in-diff options of a *-removal scope (the diff is kept beside its results).
 diff_of() {
     local scope=$1 out="$root/results/mutants/$1"
@@ -223,6 +229,10 @@ diff_of() {
         deterministic) git diff "$deterministic_base" -- src/cache src/ic > "$out/diff.patch" ;;
         bounds) git diff "$bounds_base" -- src/cache > "$out/diff.patch" ;;
         wf-compact) git diff "$compact_base" -- src/cache/wf > "$out/diff.patch" ;;
+        render-direct)
+            git diff "$direct_base" -- crates/render/src/lights.rs crates/render/src/integrator.rs \
+                crates/render/src/scene.rs > "$out/diff.patch"
+            ;;
         *) return 0 ;;
     esac
     echo --in-diff "$out/diff.patch"
@@ -246,6 +256,7 @@ filter_of() {
         lincheck | lincheck-removal) echo 'src/research/lincheck/**' ;;
         render-tiles) echo 'crates/render/src/parallel.rs' ;;
         render-distributed) echo 'crates/render/src/distributed.rs' ;;
+        render-direct) echo 'crates/render/src/{lights,integrator,scene}.rs' ;;
     esac
 }
 
@@ -255,6 +266,7 @@ list_args_of() {
         render-tiles) echo --workspace -f crates/render/src/work.rs ;;
         render-limits) echo --workspace -f crates/render/src/settings.rs ;;
         render-distributed) echo --workspace --features mpi ;;
+        render-direct) echo --workspace ;;
     esac
 }
 
@@ -417,6 +429,18 @@ run_scope() {
             b=$(workspace_baseline --release --features mpi --test mpi)
             # shellcheck disable=SC2086
             stage "$scope" no "${f[@]}" --test-workspace true $b --cargo-arg=--release $(targets mpi)
+            ;;
+        render-direct)
+            # The direct light's control variate: the renderer's unit tests (the estimators
+            # against exact and brute-force integrals), then the experiments' `reproduce` suite,
+            # whose `direct` test checks the variance the control removes on the Cornell box.
+            local f=(--workspace -f crates/render/src/lights.rs -f crates/render/src/integrator.rs
+                -f crates/render/src/scene.rs "${d[@]}")
+            stage "$scope" yes "${f[@]}" --test-package wfic-render --cargo-arg=--release --cargo-arg=--lib
+            local b
+            b=$(workspace_baseline --release --test reproduce)
+            # shellcheck disable=SC2086
+            stage "$scope" no "${f[@]}" --test-workspace true $b --cargo-arg=--release $(targets reproduce)
             ;;
         *)
             echo "unknown scope $scope (wf, cache, ic, lincheck, render-tiles, render-distributed or all)" >&2
