@@ -1193,25 +1193,30 @@ mod tests {
         calls: u32,
         seed: u64,
     ) -> (f64, f64) {
+        let (mean, var, _) = direct_at(scene, Vec3::ZERO, Vec3::Y, samples, sampling, calls, seed);
+        (mean, var)
+    }
+
+    /// [`direct_mean`] at `x` with normal `n`, and the shadow rays the estimates cast.
+    fn direct_at(
+        scene: &Scene,
+        x: Vec3,
+        n: Vec3,
+        samples: u32,
+        sampling: DirectSampling,
+        calls: u32,
+        seed: u64,
+    ) -> (f64, f64, u64) {
         let mut rng = Rng::new(seed);
         let mut rays = RayCounts::default();
         let (mut sum, mut sq) = (0.0f64, 0.0f64);
         for _ in 0..calls {
-            let e = direct_irradiance(
-                scene,
-                Vec3::ZERO,
-                Vec3::Y,
-                samples,
-                1e-4,
-                sampling,
-                &mut rng,
-                &mut rays,
-            );
+            let e = direct_irradiance(scene, x, n, samples, 1e-4, sampling, &mut rng, &mut rays);
             sum += f64::from(e.x);
             sq += f64::from(e.x) * f64::from(e.x);
         }
         let mean = sum / f64::from(calls);
-        (mean, sq / f64::from(calls) - mean * mean)
+        (mean, sq / f64::from(calls) - mean * mean, rays.shadow)
     }
 
     /// A bulb over a plane: a sphere of 48 x 24 triangles, radiance 10, radius 0.1 at height 1.
@@ -1235,7 +1240,10 @@ mod tests {
         let exact = lambert(&tris, 10.0);
         let sphere = std::f64::consts::PI * 10.0 * 0.01;
         assert!((exact / sphere - 1.0).abs() < 0.01, "{exact} vs {sphere}");
-        let (cone, cone_var) = direct_mean(&scene, 4, DirectSampling::Bounds, 20_000, 1);
+        let bounds = DirectSampling::Bounds;
+        let (cone, cone_var, shadow) = direct_at(&scene, Vec3::ZERO, Vec3::Y, 4, bounds, 20_000, 1);
+        // The whole cone is above the horizon: one shadow ray a sample.
+        assert_eq!(shadow, 4 * 20_000);
         let (area, area_var) = direct_mean(&scene, 4, DirectSampling::PowerOverDistance, 20_000, 2);
         for (name, mean) in [("cone", cone), ("area", area)] {
             assert!(
@@ -1247,6 +1255,32 @@ mod tests {
             cone_var < 0.2 * area_var,
             "cone {cone_var} vs area {area_var}"
         );
+    }
+
+    /// The same bulb seen from a point level with its centre (normal +y): the horizon cuts it in
+    /// two. The cone sampler's mean matches the exact irradiance of the upper halves of its front
+    /// faces, the triangles clipped to the horizon (`lights::projected_solid_angle`): directions
+    /// below the horizon bring nothing, even where they meet the bulb.
+    #[test]
+    fn a_bulb_cut_by_the_horizon_lights_a_point_by_its_upper_half() {
+        use crate::scene::{Material, SceneBuilder};
+        let mut b = SceneBuilder::new();
+        let bulb = b.material(Material::light(Vec3::splat(10.0)));
+        let floor = b.material(Material::diffuse(Vec3::splat(0.5)));
+        b.sphere(Vec3::new(0.0, 1.0, 0.0), 0.1, 48, 24, bulb);
+        let scene = with_floor(b, "bulb", floor, 10.0, Vec3::new(0.0, 0.5, 2.0));
+        let (x, n) = (Vec3::new(0.0, 1.0, -1.0), Vec3::Y);
+        let origin = (x + n * 1e-4).as_dvec3();
+        let exact: f64 = scene
+            .triangles()
+            .into_iter()
+            .filter(|(_, m)| *m == bulb)
+            .map(|(t, _)| t.map(|c| c.as_dvec3() - origin))
+            .filter(|r| (r[1] - r[0]).cross(r[2] - r[0]).dot(r[0]) < 0.0)
+            .map(|r| 10.0 * crate::lights::projected_solid_angle(r, n.as_dvec3()).unwrap())
+            .sum();
+        let (mean, _, _) = direct_at(&scene, x, n, 4, DirectSampling::Bounds, 20_000, 5);
+        assert!((mean / exact - 1.0).abs() < 0.01, "{mean} vs {exact}");
     }
 
     /// Two quad emitters and an occluder: a panel above the origin with a smaller grey quad

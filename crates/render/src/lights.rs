@@ -41,7 +41,7 @@
 //! office's bulb, 528) keep area sampling, and [`LightChoice::near`] tells the integrator so.
 
 use super::colour::luminance;
-use glam::Vec3;
+use glam::{DVec3, Vec3};
 use std::collections::HashMap;
 
 /// Most emitters weighed per shading point; more fall back to choice by power.
@@ -526,65 +526,50 @@ fn cone_of(e: &Emitter, x: Vec3) -> Option<(Vec3, f32, f32)> {
 /// of the scenes here have two.
 pub const CONTROL_MAX: usize = SOLID_ANGLE_MAX;
 
-/// `projected_solid_angle` in one float width (`$v`, `$f`): `integral of cos(n, w) dw` over the
-/// part of triangle `corners` (relative to the shading point) above the plane normal to `n`. The
-/// triangle is clipped to the point's upper hemisphere, then Lambert's formula for a polygon:
-/// half the sum over its edges of the angle the edge subtends times `n` dotted with the unit
-/// normal of the plane through the edge and the point. `None` when a corner is at the point.
-/// For a small, far triangle the edge terms are of first order in its angular size and their sum
-/// of second, so the caller takes `f64` unless the triangle is wide as seen from the point
-/// ([`CONTROL_F32_MIN`]).
-macro_rules! projected_solid_angle {
-    ($name:ident, $v:ty, $f:ty) => {
-        fn $name(corners: [$v; 3], n: $v) -> Option<$f> {
-            let tiny: $f = 1e-24;
-            // Sutherland-Hodgman against one plane: a triangle becomes at most a quadrilateral.
-            let mut poly = [<$v>::ZERO; 4];
-            let mut m = 0;
-            for i in 0..3 {
-                let (a, b) = (corners[i], corners[(i + 1) % 3]);
-                let (da, db) = (n.dot(a), n.dot(b));
-                if da >= 0.0 {
-                    poly[m] = a;
-                    m += 1;
-                }
-                if (da >= 0.0) != (db >= 0.0) {
-                    poly[m] = a + (b - a) * (da / (da - db));
-                    m += 1;
-                }
-            }
-            if m < 3 {
-                return Some(0.0);
-            }
-            for p in &mut poly[..m] {
-                let len2 = p.length_squared();
-                if len2 < tiny {
-                    // A corner, or a clipped one, at the point itself.
-                    return None;
-                }
-                *p /= len2.sqrt();
-            }
-            let mut sum: $f = 0.0;
-            for i in 0..m {
-                let (a, b) = (poly[i], poly[(i + 1) % m]);
-                let c = a.cross(b);
-                let len = c.length();
-                if len > 0.0 {
-                    sum += len.atan2(a.dot(b)) * n.dot(c) / len;
-                }
-            }
-            Some(0.5 * sum.abs())
+/// `integral of cos(n, w) dw` over the part of triangle `corners` (relative to the shading point)
+/// above the plane normal to `n`: the triangle clipped to the point's upper hemisphere, then
+/// Lambert's formula for a polygon, half the sum over its edges of the angle the edge subtends
+/// times `n` dotted with the unit normal of the plane through the edge and the point. In `f64`:
+/// for a small or far triangle the edge terms are of first order in its angular size and their
+/// sum of second, and an `f32` version tried here erred by 0.3% to far more on random small
+/// triangles at scene-sized coordinates. `None` when a corner (or a clipped one) is at the point.
+pub(crate) fn projected_solid_angle(corners: [DVec3; 3], n: DVec3) -> Option<f64> {
+    // Sutherland-Hodgman against one plane: a triangle becomes at most a quadrilateral.
+    let mut poly = [DVec3::ZERO; 4];
+    let mut m = 0;
+    for i in 0..3 {
+        let (a, b) = (corners[i], corners[(i + 1) % 3]);
+        let (da, db) = (n.dot(a), n.dot(b));
+        if da >= 0.0 {
+            poly[m] = a;
+            m += 1;
         }
-    };
+        if (da >= 0.0) != (db >= 0.0) {
+            poly[m] = a + (b - a) * (da / (da - db));
+            m += 1;
+        }
+    }
+    if m < 3 {
+        return Some(0.0);
+    }
+    for p in &mut poly[..m] {
+        let len2 = p.length_squared();
+        if len2 < 1e-24 {
+            return None;
+        }
+        *p /= len2.sqrt();
+    }
+    let mut sum = 0.0;
+    for i in 0..m {
+        let (a, b) = (poly[i], poly[(i + 1) % m]);
+        let c = a.cross(b);
+        let len = c.length();
+        if len > 0.0 {
+            sum += len.atan2(a.dot(b)) * n.dot(c) / len;
+        }
+    }
+    Some(0.5 * sum.abs())
 }
-
-projected_solid_angle!(projected_solid_angle_f64, glam::DVec3, f64);
-projected_solid_angle!(projected_solid_angle_f32, Vec3, f32);
-
-/// A triangle whose longest edge is at least this fraction of its nearest corner's distance has
-/// its projected solid angle computed in `f32`: its edge terms are then at most this many times
-/// their sum's order, and `f32`'s rounding (`6e-8`) costs the sum about `1e-6` of itself.
-pub const CONTROL_F32_MIN: f32 = 0.1;
 
 /// Smallest solid angle (sr) an emitter and the triangle chosen in it subtend for the sampler to
 /// work in `f32`; below, `f64`. At `1e-2` sr the triangle spans about a tenth of a radian, where
@@ -833,29 +818,17 @@ impl Lights {
         if e.count > CONTROL_MAX || coned {
             return None;
         }
-        let mut sum = 0.0f32;
+        let (xd, nd) = (x.as_dvec3(), n.as_dvec3());
+        let mut sum = 0.0f64;
         for l in &self.lights[e.first..e.first + e.count] {
-            let rel = l.corners.map(|c| c - x);
+            let rel = l.corners.map(|c| c.as_dvec3() - xd);
             // One-sided: only a triangle whose emitting side faces x.
-            if l.normal.dot(rel[0]) >= 0.0 {
+            if l.normal.as_dvec3().dot(rel[0]) >= 0.0 {
                 continue;
             }
-            let near = rel
-                .iter()
-                .map(|r| r.length_squared())
-                .fold(f32::MAX, f32::min);
-            let edge = (0..3)
-                .map(|i| (l.corners[i] - l.corners[(i + 1) % 3]).length_squared())
-                .fold(0.0, f32::max);
-            sum += if edge >= CONTROL_F32_MIN * CONTROL_F32_MIN * near {
-                projected_solid_angle_f32(rel, n)?
-            } else {
-                let xd = x.as_dvec3();
-                projected_solid_angle_f64(l.corners.map(|c| c.as_dvec3() - xd), n.as_dvec3())?
-                    as f32
-            };
+            sum += projected_solid_angle(rel, nd)?;
         }
-        Some(self.lights[e.first].emission * sum)
+        Some(self.lights[e.first].emission * sum as f32)
     }
 
     /// The light point for the uniform numbers `u` in `[0, 1)^3` under `choice`: `u[0]` chooses
@@ -1392,13 +1365,13 @@ mod tests {
             let choice = lights.choice(x, n, DirectSampling::Bounds);
             lights.unoccluded_irradiance(&choice, k, x, n).unwrap().x as f64
         };
-        // F = (1 / 2 pi) [X / sqrt(1 + X^2) atan(Y / sqrt(1 + X^2)) + (X <-> Y)], X = Y = 1 / h:
-        // at h = 1 in f32, at h = 20 (the square then too narrow for f32) in f64.
-        for h in [1.0f64, 20.0] {
+        // F = (1 / 2 pi) [X / sqrt(1 + X^2) atan(Y / sqrt(1 + X^2)) + (X <-> Y)], X = Y = 1 / h,
+        // under the corner (1, 1, 1), near and far.
+        for h in [0.75f64, 20.0] {
             let x = 1.0 / h;
             let s = x / (1.0 + x * x).sqrt();
             let want = 2.0 * s * s.atan() / 2.0;
-            let corner = exact(Vec3::new(0.0, 1.0 - h as f32, 0.0), Vec3::Y);
+            let corner = exact(Vec3::new(1.0, 1.0 - h as f32, 1.0), Vec3::Y);
             assert!(
                 (corner / want - 1.0).abs() < 1e-5,
                 "h = {h}: {corner} vs {want}"
@@ -1428,5 +1401,61 @@ mod tests {
         assert!((half / brute - 1.0).abs() < 1e-3, "{half} vs {brute}");
         // Above the square, which emits downwards: nothing.
         assert_eq!(exact(Vec3::new(0.5, 2.0, 0.5), -Vec3::Y), 0.0);
+    }
+
+    /// Which emitters have the control: a flat fan of [`CONTROL_MAX`] triangles does, one of
+    /// more does not, and a tessellated bulb (an octahedron: eight triangles) only where it is not
+    /// sampled by cone, so not under [`DirectSampling::Bounds`] from outside it.
+    #[test]
+    fn the_control_is_for_few_triangles_sampled_by_point() {
+        let v = Vec3::new;
+        let fan = |k: usize| {
+            let c = v(0.5, 1.0, 0.5);
+            let p = |i: usize| {
+                let t = std::f32::consts::TAU * i as f32 / k as f32;
+                c + v(t.cos(), 0.0, t.sin()) * 0.5
+            };
+            // Wound (c, p_i, p_i+1): facing down, towards the points below.
+            Lights::new((0..k).map(|i| tri(c, p(i), p(i + 1), 1.0)).collect())
+        };
+        let (x, n) = (v(0.3, 0.0, 0.2), Vec3::Y);
+        for (k, has) in [(CONTROL_MAX, true), (CONTROL_MAX + 1, false)] {
+            let lights = fan(k);
+            assert_eq!(lights.emitter_count(), 1);
+            let choice = lights.choice(x, n, DirectSampling::Bounds);
+            let control = lights.unoccluded_irradiance(&choice, 0, x, n);
+            assert_eq!(control.is_some(), has, "{k} triangles");
+        }
+        let r = 0.1;
+        let c = v(0.0, 5.0, 0.0);
+        let mut bulb = Vec::new();
+        for sx in [1.0f32, -1.0] {
+            for sy in [1.0f32, -1.0] {
+                for sz in [1.0f32, -1.0] {
+                    let (a, b, d) = (
+                        c + v(sx * r, 0.0, 0.0),
+                        c + v(0.0, sy * r, 0.0),
+                        c + v(0.0, 0.0, sz * r),
+                    );
+                    // Outward: swap two corners where the octant's orientation flips.
+                    bulb.push(if sx * sy * sz > 0.0 {
+                        tri(a, b, d, 1.0)
+                    } else {
+                        tri(a, d, b, 1.0)
+                    });
+                }
+            }
+        }
+        let lights = Lights::new(bulb);
+        assert_eq!(lights.emitter_count(), 1);
+        let x = Vec3::ZERO;
+        for (sampling, has) in [
+            (DirectSampling::Bounds, false),
+            (DirectSampling::PowerOverDistance, true),
+        ] {
+            let choice = lights.choice(x, n, sampling);
+            let control = lights.unoccluded_irradiance(&choice, 0, x, n);
+            assert_eq!(control.is_some(), has, "the bulb under {sampling:?}");
+        }
     }
 }
