@@ -1219,18 +1219,27 @@ mod tests {
         (mean, sq / f64::from(calls) - mean * mean, rays.shadow)
     }
 
+    /// A bulb of radiance 10 (a sphere of 48 x 24 triangles, radius 0.1) at height 1 over a
+    /// floor, and the bulb's material.
+    fn bulb_over_a_floor() -> (Scene, crate::scene::MaterialId) {
+        use crate::scene::{Material, SceneBuilder};
+        let mut b = SceneBuilder::new();
+        let bulb = b.material(Material::light(Vec3::splat(10.0)));
+        let floor = b.material(Material::diffuse(Vec3::splat(0.5)));
+        b.sphere(Vec3::new(0.0, 1.0, 0.0), 0.1, 48, 24, bulb);
+        (
+            with_floor(b, "bulb", floor, 10.0, Vec3::new(0.0, 0.5, 2.0)),
+            bulb,
+        )
+    }
+
     /// A bulb over a plane: a sphere of 48 x 24 triangles, radiance 10, radius 0.1 at height 1.
     /// Both estimators' means match Lambert's exact irradiance of its front faces (itself
     /// within 1% of the true sphere's `pi L (r / h)^2`), and the cone sampler's variance is a
     /// small fraction of area sampling's.
     #[test]
     fn a_sphere_light_over_a_plane_matches_its_exact_irradiance() {
-        use crate::scene::{Material, SceneBuilder};
-        let mut b = SceneBuilder::new();
-        let bulb = b.material(Material::light(Vec3::splat(10.0)));
-        let floor = b.material(Material::diffuse(Vec3::splat(0.5)));
-        b.sphere(Vec3::new(0.0, 1.0, 0.0), 0.1, 48, 24, bulb);
-        let scene = with_floor(b, "bulb", floor, 10.0, Vec3::new(0.0, 0.5, 2.0));
+        let (scene, bulb) = bulb_over_a_floor();
         let tris: Vec<[Vec3; 3]> = scene
             .triangles()
             .into_iter()
@@ -1263,12 +1272,7 @@ mod tests {
     /// below the horizon bring nothing, even where they meet the bulb.
     #[test]
     fn a_bulb_cut_by_the_horizon_lights_a_point_by_its_upper_half() {
-        use crate::scene::{Material, SceneBuilder};
-        let mut b = SceneBuilder::new();
-        let bulb = b.material(Material::light(Vec3::splat(10.0)));
-        let floor = b.material(Material::diffuse(Vec3::splat(0.5)));
-        b.sphere(Vec3::new(0.0, 1.0, 0.0), 0.1, 48, 24, bulb);
-        let scene = with_floor(b, "bulb", floor, 10.0, Vec3::new(0.0, 0.5, 2.0));
+        let (scene, bulb) = bulb_over_a_floor();
         let (x, n) = (Vec3::new(0.0, 1.0, -1.0), Vec3::Y);
         let origin = (x + n * 1e-4).as_dvec3();
         let exact: f64 = scene
