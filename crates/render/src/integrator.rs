@@ -220,9 +220,9 @@ pub const EVERY_EMITTER_MAX: usize = 16;
 /// sampled by point ([`crate::lights::CONTROL_MAX`]) has its samples' unoccluded irradiance
 /// computed exactly ([`Scene::emitter_unoccluded`]) as their control variate: its estimate is
 /// that irradiance less the mean of what its blocked samples would have brought, so only the
-/// emitter's occlusion is left to noise, and a point that sees all of it gets it exactly. Otherwise (and always under
-/// [`DirectSampling::PowerOverDistance`]) sample `i` takes the `i`-th of `samples` strata of the
-/// emitter choice ([`crate::lights`]).
+/// emitter's occlusion is left to noise, and a point that sees all of it gets it exactly.
+/// Otherwise (and always under [`DirectSampling::PowerOverDistance`]) sample `i` takes the
+/// `i`-th of `samples` strata of the emitter choice ([`crate::lights`]).
 ///
 /// Either way the position on the light is stratified too: a cell of a `g x g` grid
 /// (`g = ceil(sqrt(k)) <= 8` for `k` samples) drawn from a random permutation of the cells, so

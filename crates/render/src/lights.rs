@@ -22,13 +22,10 @@
 //! Above [`MAX_WEIGHED`] emitters the per-point weights would cost more than they save, and the
 //! choice falls back to power alone.
 //!
-//! **Small emitters by solid angle.** Next to an emitter ([`NEAR`]) a point uniform in its area
+//! **Near emitters by solid angle.** Next to an emitter ([`NEAR`]) a point uniform in its area
 //! carries `1 / dist^2` that varies by more than 4x over it: one sample is noisy, and many are
 //! needed for a quiet estimate. An emitter of at most
-//! [`SOLID_ANGLE_MAX`] triangles is sampled by solid angle there instead (under
-//! [`DirectSampling::Bounds`], everywhere: there the integrator controls its samples by its exact
-//! unoccluded irradiance, [`Lights::unoccluded_irradiance`], and a blocked sample then costs the
-//! estimate only what `x`'s cosine makes it differ from the mean): a triangle with
+//! [`SOLID_ANGLE_MAX`] triangles is sampled by solid angle there instead: a triangle with
 //! probability proportional to the solid angle it subtends (Van Oosterom and Strackee's formula,
 //! in f32 where the emitter and the chosen triangle subtend at least [`F32_MIN`], else in f64;
 //! zero for a triangle `x` is behind), then a direction uniform in that spherical
@@ -39,6 +36,9 @@
 //! for Arvo's construction in floating point ([`ARVO_MIN`]) is sampled by area inside, with the
 //! density that says so: the estimate stays unbiased either way. Emitters of more triangles (the
 //! office's bulb, 528) keep area sampling, and [`LightChoice::near`] tells the integrator so.
+//!
+//! **The control variate.** [`Lights::unoccluded_irradiance`]: an emitter's exact irradiance were
+//! nothing in the way, the mean of its point samples' unoccluded contributions.
 
 use super::colour::luminance;
 use glam::{DVec3, Vec3};
@@ -1357,7 +1357,6 @@ mod tests {
     /// its cells of `L cos_x cos_l / d^2`; and nothing for a point behind it.
     #[test]
     fn unoccluded_irradiance_is_the_exact_integral_clipped_to_the_horizon() {
-        use glam::DVec3;
         let lights = three();
         // The first square: [0, 1] x [0, 1] at y = 1, facing down, radiance 1.
         let k = lights.emitter_of(0) as usize;
