@@ -147,6 +147,14 @@ struct Pair {
     insert_ns: f64,
     tra_insert_ns: f64,
     insert_ratio: (f64, f64, f64),
+    /// The untimed batch before the rounds' (median ns per insert): what the first frame after
+    /// a fill pays, the fill's close included in its allocator's deferred work.
+    first_ns: f64,
+    tra_first_ns: f64,
+    /// ns per record to fill an empty cache with the set in one frame, the frame's close
+    /// included (WF's close moves the tree into its slab): one fill each.
+    fill_ns: f64,
+    tra_fill_ns: f64,
 }
 
 /// One set's row of the page.
@@ -293,25 +301,50 @@ fn insert_pair<C: IrradianceCache>(
 ) -> bool {
     let refill = refill(set, rounds);
     let (mut ta, mut tb, mut ratios) = (Vec::new(), Vec::new(), Vec::new());
+    let (mut fa, mut fb) = (Vec::new(), Vec::new());
+    let per = |t: Duration, batch: &[Record]| t.as_secs_f64() / batch.len() as f64 * 1e9;
+    // A first batch, untimed in the rounds, before the timed ones: the first frame after a
+    // fill pays the allocator's deferred work of the fill's close (glibc sorts the blocks WF's
+    // move into its slab freed at the next allocations), once per move, not per insert; it is
+    // reported on its own (`first_ns`). Its records are the rounds' last batch where the set
+    // holds enough fresh ones, else the first half of the one timed batch.
+    let (first, timed) = if set.fresh.len() >= (rounds + 1) * BATCH || refill {
+        let n = set.fresh.len();
+        if n >= 2 * BATCH {
+            (&set.fresh[n - BATCH..], &set.fresh[..n - BATCH])
+        } else {
+            (&set.fresh[..n / 2], &set.fresh[n / 2..])
+        }
+    } else {
+        (&set.fresh[..0], &set.fresh[..])
+    };
+    if !refill && !first.is_empty() {
+        fa.push(per(insert_batch(tra, first), first));
+        fb.push(per(insert_batch(x, first), first));
+    }
     for k in 0..rounds {
         let batch = if refill {
-            &set.fresh[..BATCH.min(set.fresh.len())]
+            &timed[..BATCH.min(timed.len())]
         } else {
-            &set.fresh[k * BATCH..(k + 1) * BATCH]
+            &timed[k * BATCH..(k + 1) * BATCH]
         };
         let (a, b) = if refill {
             // Each cache is filled just before its batch, so both are as warm: filling both
             // first left the one filled first out of the caches and cost its inserts up to twice
             // the other's (TRA against LCK, the same code, 0.45 at 10^5 records).
-            let fresh_tra = || {
-                insert_batch(
-                    &mut prefilled(Sequential::new(set.config), &set.records),
-                    batch,
-                )
+            let mut fresh_tra = || {
+                let mut c = prefilled(Sequential::new(set.config), &set.records);
+                fa.push(per(insert_batch(&mut c, first), first));
+                insert_batch(&mut c, batch)
             };
-            let fresh_x = || insert_batch(&mut prefilled(make(set.config), &set.records), batch);
+            let mut fresh_x = || {
+                let mut c = prefilled(make(set.config), &set.records);
+                fb.push(per(insert_batch(&mut c, first), first));
+                insert_batch(&mut c, batch)
+            };
             if k % 2 == 0 {
-                (fresh_tra(), fresh_x())
+                let a = fresh_tra();
+                (a, fresh_x())
             } else {
                 let b = fresh_x();
                 (fresh_tra(), b)
@@ -322,14 +355,22 @@ fn insert_pair<C: IrradianceCache>(
             let b = insert_batch(x, batch);
             (insert_batch(tra, batch), b)
         };
-        let per = |t: Duration| t.as_secs_f64() / batch.len() as f64 * 1e9;
-        ta.push(per(a));
-        tb.push(per(b));
+        ta.push(per(a, batch));
+        tb.push(per(b, batch));
         ratios.push(b.as_secs_f64() / a.as_secs_f64());
     }
     p.tra_insert_ns = quartiles(ta).1;
     p.insert_ns = quartiles(tb).1;
     p.insert_ratio = quartiles(ratios);
+    let median = |v: Vec<f64>| {
+        if v.is_empty() {
+            f64::NAN
+        } else {
+            quartiles(v).1
+        }
+    };
+    p.tra_first_ns = median(fa);
+    p.first_ns = median(fb);
     !refill
 }
 
@@ -346,16 +387,20 @@ struct Run {
 fn bench_scheme<C: IrradianceCache>(
     name: &str,
     set: &Set,
-    tra: &mut Sequential,
+    (tra, tra_fill_ns): (&mut Sequential, f64),
     want: &[Option<[f64; 4]>],
     make: fn(CacheConfig) -> C,
     run: &Run,
 ) -> (Pair, bool) {
+    let t0 = Instant::now();
     let mut x = prefilled(make(set.config), &set.records);
+    let fill_ns = t0.elapsed().as_secs_f64() / set.records.len() as f64 * 1e9;
     assert_eq!(x.stats().records, set.records.len(), "{name} lost records");
     check_answers(name, want, &answers(&mut x, &set.queries));
     let mut p = Pair {
         scheme: name.to_string(),
+        fill_ns,
+        tra_fill_ns,
         ..Pair::default()
     };
     (p.ratio, p.tra_lookup_ns, p.lookup_ns) = lookup_pair(tra, &mut x, &set.queries, run.rounds);
@@ -383,7 +428,9 @@ fn bench_scheme<C: IrradianceCache>(
 fn bench_set(set: &Set, run: &Run) -> Row {
     let t0 = Instant::now();
     let shape = shape(&set.config, &set.records);
+    let t1 = Instant::now();
     let mut tra = prefilled(Sequential::new(set.config), &set.records);
+    let tra_fill_ns = t1.elapsed().as_secs_f64() / set.records.len() as f64 * 1e9;
     let stats = tra.stats();
     assert_eq!(stats.records, set.records.len(), "TRA lost records");
     assert_eq!(
@@ -412,9 +459,30 @@ fn bench_set(set: &Set, run: &Run) -> Row {
     let mut pairs = Vec::new();
     for (i, &name) in schemes.iter().enumerate() {
         let (p, changed) = match name {
-            "wf" => bench_scheme(name, set, &mut tra, &want, WaitFree::adopt, run),
-            "lck" => bench_scheme(name, set, &mut tra, &want, Locked::<MutexFlavour>::new, run),
-            "lw" => bench_scheme(name, set, &mut tra, &want, LocalWrite::new, run),
+            "wf" => bench_scheme(
+                name,
+                set,
+                (&mut tra, tra_fill_ns),
+                &want,
+                WaitFree::adopt,
+                run,
+            ),
+            "lck" => bench_scheme(
+                name,
+                set,
+                (&mut tra, tra_fill_ns),
+                &want,
+                Locked::<MutexFlavour>::new,
+                run,
+            ),
+            "lw" => bench_scheme(
+                name,
+                set,
+                (&mut tra, tra_fill_ns),
+                &want,
+                LocalWrite::new,
+                run,
+            ),
             other => panic!("unknown scheme {other} (wf, lck, lw)"),
         };
         pairs.push(p);
@@ -473,7 +541,7 @@ fn ward_for(target: usize, hint: &mut Option<(f32, usize)>, keep: bool) -> Set {
     Set {
         kind: "ward".into(),
         target: Some(target),
-        fresh: ward::fresh_like(&ws, INSERT_ROUNDS * BATCH, FRESH_SEED),
+        fresh: ward::fresh_like(&ws, (INSERT_ROUNDS + 1) * BATCH, FRESH_SEED),
         sorted: morton_order(&queries, &config),
         queries,
         config,
@@ -506,7 +574,7 @@ fn real_sets() -> Vec<Set> {
             for i in (1..records.len()).rev() {
                 records.swap(i, rng.below(i as u64 + 1) as usize);
             }
-            let held = (records.len() / 10).min(INSERT_ROUNDS * BATCH);
+            let held = (records.len() / 10).min((INSERT_ROUNDS + 1) * BATCH);
             let fresh = records.split_off(records.len() - held);
             Some(Set {
                 kind,

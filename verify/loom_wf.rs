@@ -81,6 +81,14 @@ fn a_sealed_list_grows_while_another_thread_reads_minimal() {
     model(a_sealed_list_grows_while_another_thread_reads::<Minimal>);
 }
 
+/// Both outcomes are reached: the reader sees the graft below the slab, or not.
+#[test]
+fn a_relocated_tree_grows_while_another_thread_reads_minimal() {
+    let (yes, no) = model_outcomes(a_relocated_tree_grows_while_another_thread_reads::<Minimal>);
+    assert!(yes > 0, "the reader never saw the graft below the slab");
+    assert!(no > 0, "the reader always saw the graft below the slab");
+}
+
 #[test]
 fn two_inserts_race_to_install_one_segment_minimal() {
     model(two_inserts_race_to_install_one_segment::<Minimal>);

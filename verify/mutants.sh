@@ -27,6 +27,9 @@
 #   bash verify/mutants.sh render-direct                    (the lines of the renderer's lights,
 #                                                            integrator and scene that the direct
 #                                                            light's control variate changed)
+#   bash verify/mutants.sh wf-slab                          (the lines of src/cache/wf that moving
+#                                                            the nodes into a slab at the frame's
+#                                                            close changed)
 #   bash verify/mutants.sh summary SCOPE                    (rewrite SCOPE's summary.md)
 #
 # Each scope runs as a cascade: every mutant is first tested against the fastest suite that can
@@ -218,6 +221,9 @@ compact_base=9e7c548
 # The commit before the direct light's control variate (issue 41): render-direct mutates the
 # lines changed since.
 direct_base=6fbe1b8
+# The commit before WF's nodes were moved into a slab at the frame's close (issue 42): wf-slab
+# mutates the lines changed since.
+slab_base=3a44454
 # diff_of SCOPE: the --in-diff options of a *-removal scope (the diff is kept beside its results).
 diff_of() {
     local scope=$1 out="$root/results/mutants/$1"
@@ -229,6 +235,7 @@ diff_of() {
         deterministic) git diff "$deterministic_base" -- src/cache src/ic > "$out/diff.patch" ;;
         bounds) git diff "$bounds_base" -- src/cache > "$out/diff.patch" ;;
         wf-compact) git diff "$compact_base" -- src/cache/wf > "$out/diff.patch" ;;
+        wf-slab) git diff "$slab_base" -- src/cache/wf > "$out/diff.patch" ;;
         render-direct)
             git diff "$direct_base" -- crates/render/src/lights.rs crates/render/src/integrator.rs \
                 crates/render/src/scene.rs > "$out/diff.patch"
@@ -246,7 +253,7 @@ filter_of() {
         wf) echo 'src/cache/wf/**' ;;
         cache) echo 'src/cache/*.rs' ;;
         wf-lookup) echo 'src/cache/wf/**' ;;
-        wf-removal | wf-compact) echo 'src/cache/wf/**' ;;
+        wf-removal | wf-compact | wf-slab) echo 'src/cache/wf/**' ;;
         cache-lookup) echo 'src/cache/{octree,sequential}.rs' ;;
         cache-removal | cache-work) echo 'src/cache/*.rs' ;;
         deterministic) echo 'src/**' ;;
@@ -316,10 +323,12 @@ run_scope() {
             stage wf-removal yes -f 'src/cache/wf/**' --re "$wf_removal_re" --features loom -- --test loom_wf --test loom_orderings --test loom_leaks
             stage wf-removal no -f 'src/cache/wf/**' --re "$wf_removal_re" -- "${real_thread_suites[@]}"
             ;;
-        wf-compact)
-            # The lines of src/cache/wf that the rebuild of grown lists changed (the first block's
-            # length, the rule, the handle's notes, the close): the unit tests that pin the rule
-            # first, then the wf scope's stages, with the memory page's check last.
+        wf-compact | wf-slab)
+            # The lines of src/cache/wf that a change to the frame's close made: for wf-compact the
+            # rebuild of grown lists (the first block's length, the rule, the handle's notes, the
+            # close), for wf-slab the move of the nodes into a slab (the node's flag, freeing,
+            # the handle's count, the rule, the move). The unit tests that pin the rule first,
+            # then the wf scope's stages, with the memory page's check last.
             local f=(-f 'src/cache/wf/**' "${d[@]}")
             stage "$scope" yes "${f[@]}" -- --lib
             stage "$scope" no "${f[@]}" --features loom -- --test loom_wf --test loom_orderings --test loom_leaks

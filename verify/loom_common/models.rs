@@ -211,6 +211,53 @@ pub fn a_sealed_list_grows_while_another_thread_reads<O: Orderings>() {
     );
 }
 
+/// Nodes a frame's close moved into the slab are read, grown below and freed as boxed ones are.
+/// Frame 1 stores a record at depth 2: the graft boxes two nodes, and the close moves both into
+/// the slab. In frame 2 one thread grafts a depth-3 node below the slab's depth-2 node while
+/// another reads there: the reader sees the frame-1 record whole, and the new one whole or not at
+/// all. Frame 2's close moves all three nodes into a new slab (one new node against a slab of two
+/// is past the quarter), freeing the old slab and the box. A removal of both records then frees
+/// every node in place; loom's leak check sees every node and segment dropped.
+pub fn a_relocated_tree_grows_while_another_thread_reads<O: Orderings>() -> bool {
+    let (old, new) = (record_at_depth(2, 0.5), record_at_depth(3, 0.5));
+    let mut cache = WaitFree::<O>::new(config(), CasFailure::Adopt);
+    insert_one(&cache, 0, old);
+    cache.end_frame();
+    assert_eq!(
+        cache.slab_len(),
+        2,
+        "the close did not move the path into the slab"
+    );
+    let cache = Arc::new(cache);
+    let c = cache.clone();
+    let t = Go::race(move || insert_one(&*c, 1, new));
+    let found = valid_at(&*cache, 2, new.position);
+    assert!(found.iter().all(|r| r.is_intact()), "torn record");
+    assert!(
+        found
+            .iter()
+            .any(|r| r.position == old.position && r.radius == old.radius),
+        "the record sealed before the frame was missed"
+    );
+    let saw = found.len() == 2;
+    t.join().unwrap();
+    let mut cache = Arc::try_unwrap(cache).unwrap_or_else(|_| panic!("threads joined"));
+    cache.end_frame();
+    assert_eq!(
+        (cache.slab_len(), cache.stats().nodes, cache.stats().records),
+        (3, 4, 2),
+        "the close did not move the grown path"
+    );
+    let both = wfic::ic::Selection::touching(new.position, new.position).unwrap();
+    assert_eq!(cache.remove(&both), 2);
+    assert_eq!(
+        (cache.slab_len(), cache.stats().nodes),
+        (0, 1),
+        "the removal did not free the slab's nodes"
+    );
+    saw
+}
+
 /// Two appends race to install the same missing segment (slots 2 and 3 are segment 1), and before
 /// it the list's directory of later segments: each race is won by one compare-and-swap, and the
 /// loser frees its own directory or segment and uses the winner's.

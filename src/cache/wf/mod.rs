@@ -75,6 +75,16 @@
 //! it inserts, frame after frame, holds memory bounded by its live records and the tree over
 //! them; between frames a list's unused slots are at most a sixteenth of its records, or the
 //! seven of one segment of eight, or the three of a first segment of four.
+//!
+//! **Where the nodes lie.** A graft boxes its nodes one by one, so the allocator scatters them
+//! among the lists' blocks. A frame's close that finds the nodes boxed since the last move, or
+//! freed in the slab since, at least a quarter of the slab moves every node below the root into
+//! one fresh slab in breadth-first order (`WaitFree::relocate`): a node's children side by side,
+//! the upper levels in a few pages, as the sequential octree's arena keeps them. Each move is
+//! paid for by the quarter of new or freed nodes before it, so a node is moved a constant number
+//! of times on average, and the slab's unused places stay under a quarter of it. Nodes are still
+//! owned through their parents' pointers; the slab holds only their memory, and a node's
+//! `in_slab` flag says whether freeing it frees a box or only drops it in place.
 
 mod list;
 pub(crate) mod orderings;
@@ -93,6 +103,7 @@ use glam::Vec3;
 use list::RecordList;
 use orderings::{ord, Site};
 use std::marker::PhantomData;
+use std::mem::MaybeUninit;
 use std::ptr;
 
 /// The record list itself, for the loom models that exercise it alone.
@@ -123,6 +134,11 @@ struct Node<O: Orderings> {
     /// Bit `o` set once `children[o]` is published and its publisher, or an insert that walked
     /// into it, has said so.
     occupied: AtomicU8,
+    /// Where the node's memory is: false for a node boxed on its own (every node a graft builds),
+    /// true for one a frame's close moved into the cache's slab (`WaitFree::relocate`). Written
+    /// only while the node is private or with `&mut` access to the cache; read only with `&mut`,
+    /// to know how to free the node. It sits in the padding before the list: no byte more.
+    in_slab: bool,
     /// The list's head, first block pointer and first block length. With the mask, the 32 bytes
     /// a walk reads of every node it visits; a leaf costs no more.
     records: RecordList<O>,
@@ -143,6 +159,7 @@ impl<O: Orderings> Node<O> {
         Self {
             children: std::array::from_fn(|_| AtomicPtr::new(ptr::null_mut())),
             occupied: AtomicU8::new(0),
+            in_slab: false,
             records: RecordList::new(),
             _owns: PhantomData,
             _tracked: Tracked::new(),
@@ -223,11 +240,31 @@ impl<O: Orderings> Drop for Node<O> {
             // Relaxed: `&mut self` — every other thread's accesses happen-before this drop.
             let child = child.load(Ordering::Relaxed);
             if !child.is_null() {
-                // SAFETY: published from `Box::into_raw` in `graft` and owned by this node alone.
-                // Recursion is bounded by the tree depth.
-                drop(unsafe { Box::from_raw(child) });
+                // SAFETY: a child is owned by this node alone (boxed by `graft` or `build_path`,
+                // or moved into the slab by `relocate`), and is being dropped with it. Recursion
+                // is bounded by the tree depth.
+                unsafe { free_node(child) };
             }
         }
+    }
+}
+
+/// Drops `node` and its subtree and, for a boxed node, frees its memory; a slab node's memory is
+/// the slab's, freed with it (`WaitFree::relocate`).
+///
+/// # Safety
+/// `node` is a live node (from `Box::into_raw`, or placed in the slab by `relocate`) that no
+/// pointer reachable from the tree leads to any more, or only its dropping parent's, and that
+/// nothing accesses again.
+unsafe fn free_node<O: Orderings>(node: *mut Node<O>) {
+    // SAFETY: live, and owned by the caller alone (the contract above).
+    if unsafe { (*node).in_slab } {
+        // SAFETY: a slab node is dropped once, here, by its only owner; its memory stays the
+        // slab's (a `MaybeUninit`, never dropped as a node).
+        unsafe { ptr::drop_in_place(node) };
+    } else {
+        // SAFETY: a boxed node, from `Box::into_raw`, owned by the caller alone.
+        drop(unsafe { Box::from_raw(node) });
     }
 }
 
@@ -235,7 +272,16 @@ impl<O: Orderings> Drop for Node<O> {
 pub struct WaitFree<O: Orderings = Minimal> {
     config: CacheConfig,
     policy: CasFailure,
+    /// Declared before `slab`, so dropped first: dropping the tree drops the slab's nodes in
+    /// place, and only then is the slab's memory freed.
     root: Box<Node<O>>,
+    /// The memory of the nodes the last relocation moved, in breadth-first order (`relocate`).
+    /// Its nodes are owned by their parents, as boxed ones are; the slab only holds the memory.
+    slab: Box<[MaybeUninit<Node<O>>]>,
+    /// Nodes boxed since the last relocation, as the handles counted them (`Grown`).
+    loose: usize,
+    /// Slab nodes freed since the last relocation, whose memory lies unused.
+    dead: usize,
     ledger: Ledger<Grown>,
     stats: CacheStats,
 }
@@ -266,6 +312,8 @@ impl WaitFree<Minimal> {
 /// How an insert ended inside the tree.
 enum Placed {
     Stored,
+    /// Stored at the bottom of a path this insert grafted: that many new boxed nodes.
+    Grafted(u32),
     /// Stored in the first slot of the second or a later segment past the list's first block:
     /// the list grew, and the frame's close may rebuild it (`list.rs`, 5).
     Grew,
@@ -274,11 +322,15 @@ enum Placed {
 }
 
 /// What a handle leaves for the frame's close: where each list it made grow lies (the record's
-/// position and depth: the close finds the node again by that path, with `&mut`). Only a list that
-/// opened a segment can have come to need a rebuild, so the close looks at these lists alone
-/// rather than walking the tree.
+/// position and depth: the close finds the node again by that path, with `&mut`), and how many
+/// nodes its grafts published. Only a list that opened a segment can have come to need a rebuild,
+/// so the close looks at these lists alone rather than walking the tree; the node count tells it
+/// when the boxed nodes are many enough to move into a slab (`WaitFree::relocate`).
 #[derive(Debug, Default)]
-pub(crate) struct Grown(Vec<(Vec3, u32)>);
+pub(crate) struct Grown {
+    lists: Vec<(Vec3, u32)>,
+    nodes: usize,
+}
 
 impl Local for Grown {
     fn take(&mut self) -> Self {
@@ -293,6 +345,9 @@ impl<O: Orderings> WaitFree<O> {
             config,
             policy,
             root: Box::new(Node::new()),
+            slab: Box::new([]),
+            loose: 0,
+            dead: 0,
             ledger: Ledger::new(),
             stats: CacheStats::default(),
         }
@@ -329,7 +384,7 @@ impl<O: Orderings> WaitFree<O> {
                     match self.graft(node, octant, cell, level, depth, record) {
                         None => {
                             node.mark(octant);
-                            return (Placed::Stored, steps, lost);
+                            return (Placed::Grafted(depth - level + 1), steps, lost);
                         }
                         Some(winner) => {
                             lost += 1;
@@ -505,7 +560,8 @@ impl<O: Orderings> WaitFree<O> {
     /// record.
     fn reclaim(&mut self) {
         /// Compacts `node`'s subtree; true when it holds no record and no child any more.
-        fn prune<O: Orderings>(node: &mut Node<O>) -> bool {
+        /// Counts the nodes it frees into `freed`: (boxed, in the slab).
+        fn prune<O: Orderings>(node: &mut Node<O>, freed: &mut (usize, usize)) -> bool {
             let mut live = node.records.compact();
             for octant in Octant::ALL {
                 let slot = &mut node.children[octant.index()];
@@ -516,22 +572,108 @@ impl<O: Orderings> WaitFree<O> {
                 let Some(child_ref) = (unsafe { child.as_mut() }) else {
                     continue;
                 };
-                if prune(child_ref) {
+                if prune(child_ref, freed) {
                     // Relaxed: as above; nothing can load the pointer before the next frame,
                     // whose handles are made after this `&mut` access ends.
                     slot.store(ptr::null_mut(), Ordering::Relaxed);
                     // Relaxed: as above. The one place a bit is cleared: with its child gone.
                     node.occupied.fetch_and(!octant.bit(), Ordering::Relaxed);
-                    // SAFETY: from `Box::into_raw` in `graft` or `build_path`, unlinked just
-                    // above, so owned here alone.
-                    drop(unsafe { Box::from_raw(child) });
+                    if child_ref.in_slab {
+                        freed.1 += 1;
+                    } else {
+                        freed.0 += 1;
+                    }
+                    // SAFETY: a live node, unlinked just above, so owned here alone.
+                    unsafe { free_node(child) };
                 } else {
                     live += 1;
                 }
             }
             live == 0
         }
-        prune(&mut self.root);
+        let mut freed = (0, 0);
+        prune(&mut self.root, &mut freed);
+        self.loose = self.loose.saturating_sub(freed.0);
+        self.dead += freed.1;
+    }
+
+    /// Relocates when the nodes outside the slab, or freed in it, reach a quarter of it: each
+    /// relocation moves every node once, and at least a quarter as many nodes were made or freed
+    /// since the last, so a node is moved a constant number of times on average, and the slab's
+    /// unused memory stays under a quarter of it.
+    fn settle(&mut self) {
+        let changed = self.loose + self.dead;
+        if changed > 0 && changed * 4 >= self.slab.len() {
+            self.relocate();
+        }
+    }
+
+    /// Moves every node below the root into one fresh slab, in breadth-first order, and frees the
+    /// old slab and the boxed nodes' memory (`&mut`: no handle exists).
+    ///
+    /// Why: a graft boxes its nodes one by one, so the allocator scatters them among the lists'
+    /// blocks, and a walk through a tree larger than the caches meets a cold line, and often a
+    /// cold page, at every node. In the slab, a node's children lie side by side and the upper
+    /// levels in a few pages, as the sequential octree's arena keeps them
+    /// (`results/records-held`). Nodes are moved bitwise: nothing points into a node but its
+    /// parent's child pointer, which is rewritten, and a list's blocks are its own allocations.
+    fn relocate(&mut self) {
+        let mut count = 0usize;
+        self.for_each_node(&mut |_| count += 1);
+        let count = count - 1; // the root stays in its box
+        let mut slab: Box<[MaybeUninit<Node<O>>]> =
+            (0..count).map(|_| MaybeUninit::uninit()).collect();
+        let base = slab.as_mut_ptr().cast::<Node<O>>();
+        let mut filled = 0;
+        // Moves `parent`'s children to the slab's next places and points `parent` at them.
+        let adopt = |parent: &mut Node<O>, filled: &mut usize| {
+            for slot in &parent.children {
+                // Relaxed: `&mut self` — no other thread is running.
+                let child = slot.load(Ordering::Relaxed);
+                if child.is_null() {
+                    continue;
+                }
+                assert!(*filled < count, "more nodes than counted");
+                // SAFETY: `*filled < count`, inside the new slab.
+                let to = unsafe { base.add(*filled) };
+                *filled += 1;
+                // SAFETY: `child` is a live node (published, reached from the root with `&mut`),
+                // and `to` is unused memory of the new slab, which no node overlaps. The copy
+                // becomes the node; the old place is never dropped as a node (below).
+                let boxed = unsafe {
+                    let boxed = !(*child).in_slab;
+                    ptr::copy_nonoverlapping(child, to, 1);
+                    (*to).in_slab = true;
+                    boxed
+                };
+                if boxed {
+                    // SAFETY: from `Box::into_raw`; its node was moved out just above, so the box
+                    // is freed as memory only.
+                    drop(unsafe { Box::from_raw(child.cast::<MaybeUninit<Node<O>>>()) });
+                }
+                // Relaxed: as above.
+                slot.store(to, Ordering::Relaxed);
+            }
+        };
+        adopt(&mut self.root, &mut filled);
+        let mut next = 0;
+        while next < filled {
+            // SAFETY: the `next`-th place was filled by `adopt`, and nothing else refers to it
+            // while this loop holds it.
+            adopt(unsafe { &mut *base.add(next) }, &mut filled);
+            next += 1;
+        }
+        assert_eq!(filled, count, "every node reached once");
+        // The old slab's nodes were all moved out or dropped (`free_node`): only memory is left.
+        self.slab = slab;
+        self.loose = 0;
+        self.dead = 0;
+    }
+
+    /// The nodes the slab has places for, live or freed since the last move (`relocate`): a
+    /// frame's close that moved the tree leaves it equal to the nodes below the root.
+    pub fn slab_len(&self) -> usize {
+        self.slab.len()
     }
 
     /// Slots reserved in every list, live or not.
@@ -646,19 +788,20 @@ impl<O: Orderings> IrradianceCache for WaitFree<O> {
 
     fn end_frame(&mut self) -> FrameReport {
         let (deposits, report) = self.ledger.close_frame(&mut self.stats);
+        let lists: Vec<Grown> = deposits.into_iter().map(|d| d.local).collect();
+        self.loose += lists.iter().map(|grown| grown.nodes).sum::<usize>();
         if report.workers.removed > 0 {
             // Every list and subtree the removals touched: the whole walk.
             self.reclaim();
         } else {
             // Only the lists that opened a segment this frame can need a rebuild.
-            for deposit in deposits {
-                for (position, depth) in deposit.local.0 {
-                    if let Some(node) = self.node_on_path(position, depth) {
-                        node.records.compact();
-                    }
+            for (position, depth) in lists.into_iter().flat_map(|grown| grown.lists) {
+                if let Some(node) = self.node_on_path(position, depth) {
+                    node.records.compact();
                 }
             }
         }
+        self.settle();
         report
     }
 
@@ -666,6 +809,7 @@ impl<O: Orderings> IrradianceCache for WaitFree<O> {
         let (removed, work) = self.remove_from(selection, self.stats.frames);
         if removed > 0 {
             self.reclaim();
+            self.settle();
         }
         self.stats.totals.count_removal(removed, work)
     }
@@ -728,9 +872,13 @@ impl<O: Orderings> CacheHandle for WfHandle<'_, O> {
         self.core.stats.cas_failures += u64::from(lost);
         match placed {
             Placed::Stored => Ok(self.core.inserted(Inserted::Stored(record.id()), steps)),
+            Placed::Grafted(nodes) => {
+                self.core.local.nodes += nodes as usize;
+                Ok(self.core.inserted(Inserted::Stored(record.id()), steps))
+            }
             Placed::Grew => {
                 let depth = self.cache.config.depth_of(&record);
-                self.core.local.0.push((record.position, depth));
+                self.core.local.lists.push((record.position, depth));
                 Ok(self.core.inserted(Inserted::Stored(record.id()), steps))
             }
             Placed::Discarded => Ok(self.core.inserted(Inserted::Discarded(record.id()), steps)),
@@ -806,6 +954,143 @@ mod tests {
         }
     }
 
+    /// Records in `0..4` cubed (or the box `lo..hi`), unsealed: a handle seals them.
+    fn records_in(rng: &mut crate::rng::Rng, n: usize, lo: f32, hi: f32) -> Vec<Record> {
+        (0..n)
+            .map(|i| {
+                let p = Vec3::new(rng.range(lo, hi), rng.range(lo, hi), rng.range(lo, hi));
+                let normal = [Vec3::Z, Vec3::X, -Vec3::Y][i % 3];
+                Record::new(
+                    p,
+                    normal,
+                    Vec3::splat(rng.range(0.0, 2.0)),
+                    rng.range(0.02, 1.0),
+                )
+            })
+            .collect()
+    }
+
+    /// Inserts `records` in one frame, by one handle.
+    fn insert_frame(cache: &mut WaitFree<Minimal>, records: &[Record]) {
+        let frame = cache.frame();
+        let mut h = frame.handle();
+        for r in records {
+            h.insert(*r).unwrap();
+        }
+        drop(h);
+        frame.close();
+    }
+
+    /// The nodes below the root as the tree holds them: (boxed, in the slab), and whether the
+    /// slab's nodes, read in its order, are the tree's breadth-first order with each node's
+    /// children side by side (every slab node reached once, from the root down).
+    fn places(cache: &mut WaitFree<Minimal>) -> (usize, usize, bool) {
+        let base = cache.slab.as_ptr().cast::<Node<Minimal>>();
+        let (mut boxed, mut in_slab) = (0, 0);
+        // Breadth first, the root's children first.
+        let mut queue: std::collections::VecDeque<*const Node<Minimal>> =
+            std::collections::VecDeque::from([&*cache.root as *const Node<Minimal>]);
+        let mut order = Vec::new();
+        while let Some(node) = queue.pop_front() {
+            // SAFETY (test): live nodes of a tree no one else holds.
+            for child in unsafe { &(*node).children } {
+                let child = child.load(Ordering::Relaxed).cast_const();
+                if child.is_null() {
+                    continue;
+                }
+                // SAFETY (test): as above.
+                if unsafe { (*child).in_slab } {
+                    in_slab += 1;
+                    order.push(child);
+                } else {
+                    boxed += 1;
+                }
+                queue.push_back(child);
+            }
+        }
+        // SAFETY (test): offsets inside the slab, compared as addresses only.
+        let breadth_first = order
+            .iter()
+            .enumerate()
+            .all(|(i, &p)| std::ptr::eq(p, unsafe { base.add(i) }));
+        (boxed, in_slab, breadth_first)
+    }
+
+    /// A frame's close that finds the boxed nodes at least a quarter of the slab moves every node
+    /// into one slab, breadth first; the tree answers every lookup as before, and holds every
+    /// record once. A later frame that boxes fewer new nodes than a quarter of the slab leaves
+    /// them boxed; once they reach a quarter, the next close moves them all.
+    #[test]
+    fn a_close_moves_the_nodes_into_one_breadth_first_slab_once_a_quarter_are_new() {
+        let config = CacheConfig::new(Vec3::ZERO, Vec3::splat(4.0), 0.3).unwrap();
+        let mut rng = crate::rng::Rng::new(5);
+        let mut cache = WaitFree::<Minimal>::adopt(config);
+        let mut tree = crate::cache::Octree::new(config);
+        let first = records_in(&mut rng, 2000, 0.0, 2.0);
+        insert_frame(&mut cache, &first);
+        let nodes = cache.stats().nodes - 1;
+        assert!(nodes > 100, "{nodes} nodes");
+        assert_eq!(places(&mut cache), (0, nodes, true));
+        assert_eq!(cache.slab.len(), nodes);
+        assert_eq!((cache.loose, cache.dead), (0, 0));
+        // A few records in a new corner: new nodes, fewer than a quarter of the slab.
+        let few = records_in(&mut rng, 8, 3.0, 4.0);
+        insert_frame(&mut cache, &few);
+        let (boxed, in_slab, breadth_first) = places(&mut cache);
+        assert!(boxed > 0 && boxed * 4 < nodes, "{boxed} boxed of {nodes}");
+        assert_eq!((in_slab, breadth_first, cache.loose), (nodes, true, boxed));
+        // Enough new nodes to reach a quarter: all moved, the slab now the whole tree.
+        let more = records_in(&mut rng, 2000, 2.0, 4.0);
+        insert_frame(&mut cache, &more);
+        let all = cache.stats().nodes - 1;
+        assert_eq!(places(&mut cache), (0, all, true));
+        assert_eq!((cache.slab.len(), cache.loose), (all, 0));
+        // What the tree holds and answers is unchanged by the moves.
+        let mut held: Vec<Record> = Vec::new();
+        for r in cache.snapshot() {
+            tree.insert(r).unwrap();
+            held.push(r);
+        }
+        assert_eq!(held.len(), first.len() + few.len() + more.len());
+        let frame = cache.frame();
+        let mut h = frame.handle();
+        for q in records_in(&mut rng, 2000, 0.0, 4.0) {
+            let mut want = crate::ic::Accumulator::new(q.position, q.normal, 0.3, None);
+            tree.walk(q.position, |_| true, &mut |r| {
+                want.add(r);
+            });
+            assert_eq!(h.lookup(q.position, q.normal), want.finish());
+        }
+    }
+
+    /// Removal frees slab nodes in place (their memory stays the slab's, counted as dead) and
+    /// boxed ones outright; once the dead reach a quarter of the slab the close moves the live
+    /// nodes into a slab of just their number.
+    #[test]
+    fn removal_frees_slab_nodes_and_a_quarter_dead_compacts_the_slab() {
+        let config = CacheConfig::new(Vec3::ZERO, Vec3::splat(4.0), 0.3).unwrap();
+        let mut rng = crate::rng::Rng::new(6);
+        let mut cache = WaitFree::<Minimal>::adopt(config);
+        insert_frame(&mut cache, &records_in(&mut rng, 2000, 0.0, 4.0));
+        let before = cache.slab.len();
+        // A small box: some nodes freed, fewer than a quarter; they stay in the slab, dead.
+        let small = Selection::touching(Vec3::splat(0.0), Vec3::splat(0.5)).unwrap();
+        assert!(IrradianceCache::remove(&mut cache, &small) > 0);
+        let live = cache.stats().nodes - 1;
+        assert!(
+            live < before && (before - live) * 4 < before,
+            "{live} of {before}"
+        );
+        assert_eq!((cache.slab.len(), cache.dead), (before, before - live));
+        assert_eq!(places(&mut cache).1, live);
+        // Half the room: the dead pass a quarter, and the slab is rebuilt at the live count.
+        let half = Selection::touching(Vec3::splat(0.0), Vec3::new(4.0, 4.0, 2.0)).unwrap();
+        assert!(IrradianceCache::remove(&mut cache, &half) > 0);
+        let live = cache.stats().nodes - 1;
+        assert_eq!((cache.slab.len(), cache.dead, cache.loose), (live, 0, 0));
+        assert_eq!(places(&mut cache), (0, live, true));
+    }
+
     /// WF's walk with the prefilter gives, query by query, the bit-identical interpolation that
     /// the plain octree's walk gives without it, over the same nodes and keys: the prefilter and
     /// the geometric choice of children change what is read, not what is found. Most examined
@@ -835,7 +1120,10 @@ mod tests {
             )
             .sealed(RecordId::new(WorkerId::new(0), 0, seq as u64));
             let (placed, _, _) = cache.place(r);
-            assert!(matches!(placed, Placed::Stored | Placed::Grew));
+            assert!(matches!(
+                placed,
+                Placed::Stored | Placed::Grew | Placed::Grafted(_)
+            ));
             tree.insert(r).unwrap();
         }
         let (mut hits, mut examined, mut tested) = (0, 0, 0);
