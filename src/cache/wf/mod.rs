@@ -1089,6 +1089,23 @@ mod tests {
         let live = cache.stats().nodes - 1;
         assert_eq!((cache.slab.len(), cache.dead, cache.loose), (live, 0, 0));
         assert_eq!(places(&mut cache), (0, live, true));
+        // A few boxed nodes (fewer than a quarter), then removed: the boxes are freed and no
+        // longer counted, so they do not bring the next move forward.
+        let corner = Selection::touching(Vec3::splat(0.1), Vec3::splat(0.2)).unwrap();
+        insert_frame(&mut cache, &records_in(&mut rng, 3, 0.1, 0.2));
+        let (boxed, _, _) = places(&mut cache);
+        assert!(
+            boxed > 0 && cache.loose == boxed,
+            "{boxed} boxed, {} loose",
+            cache.loose
+        );
+        assert!(IrradianceCache::remove(&mut cache, &corner) >= 3);
+        let (boxed_after, _, _) = places(&mut cache);
+        assert_eq!(cache.loose, boxed_after, "freed boxes still counted");
+        assert!(
+            boxed_after < boxed,
+            "{boxed_after} of {boxed} boxed nodes left"
+        );
     }
 
     /// WF's walk with the prefilter gives, query by query, the bit-identical interpolation that
