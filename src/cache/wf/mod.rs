@@ -633,7 +633,9 @@ impl<O: Orderings> WaitFree<O> {
                 if child.is_null() {
                     continue;
                 }
-                assert!(*filled < count, "more nodes than counted");
+                if *filled >= count {
+                    broken("more nodes than counted");
+                }
                 // SAFETY: `*filled < count`, inside the new slab.
                 let to = unsafe { base.add(*filled) };
                 *filled += 1;
@@ -663,7 +665,9 @@ impl<O: Orderings> WaitFree<O> {
             adopt(unsafe { &mut *base.add(next) }, &mut filled);
             next += 1;
         }
-        assert_eq!(filled, count, "every node reached once");
+        if filled != count {
+            broken("fewer nodes than counted");
+        }
         // The old slab's nodes were all moved out or dropped (`free_node`): only memory is left.
         self.slab = slab;
         self.loose = 0;
@@ -724,6 +728,15 @@ impl<O: Orderings> WaitFree<O> {
         }
         walk(&mut self.root, f);
     }
+}
+
+/// Ends the process when `relocate` finds the tree other than it counted it, which `&mut` access
+/// rules out. Not a panic: unwinding would drop a tree whose moved nodes point into the new
+/// slab, freed on the way out.
+#[cold]
+fn broken(what: &str) -> ! {
+    eprintln!("wfic: WaitFree::relocate: {what}");
+    std::process::abort()
 }
 
 /// A private chain of nodes from `cell` at `level` down to `depth`, holding `record` at the bottom.
